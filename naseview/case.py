@@ -1,0 +1,275 @@
+"""Case directories (SPEC §3): reading, validating and writing.
+
+A case is four photos plus the 2D landmark clicks on them and at least one calliper
+distance. :func:`read_case` validates everything at the boundary and raises
+:class:`~naseview.errors.NaseviewError` with one line naming the file, the key and what
+was expected; the rest of naseview can then trust a :class:`Case`.
+
+Example
+-------
+>>> case = read_case("assets/demo-case")              # doctest: +SKIP
+>>> case.views["front"].landmarks["prn"]              # doctest: +SKIP
+array([511.2, 610. ])
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from naseview.errors import NaseviewError
+from naseview.fileio import atomic_write_json, image_size, read_image, read_json, write_image
+from naseview.landmarks import ALL_IDS, LANDMARK_IDS, VIEWS
+
+CASE_FORMAT = "naseview.case/1"
+
+
+@dataclass
+class View:
+    """One photo of a case.
+
+    Attributes:
+        name: ``front``, ``left``, ``right`` or ``bottom``.
+        image: file name relative to the case directory.
+        landmarks: id -> (2,) pixel ``[x, y]`` (SPEC §2), only where marked.
+        width, height: image size in pixels.
+        camera: optional known intrinsics, ``{"focal_px": f}`` or ``{"K": 3x3}``.
+    """
+
+    name: str
+    image: str
+    landmarks: dict[str, np.ndarray]
+    width: int
+    height: int
+    camera: dict[str, Any] | None = None
+
+    def known_K(self) -> np.ndarray | None:
+        """(3, 3) intrinsics if the case gives them, else ``None``."""
+        from naseview.camera import intrinsics
+
+        if not self.camera:
+            return None
+        if "K" in self.camera:
+            return np.asarray(self.camera["K"], dtype=np.float64)
+        return intrinsics(float(self.camera["focal_px"]), self.width, self.height)
+
+
+@dataclass
+class Case:
+    """A validated case directory.
+
+    Attributes:
+        root: the case directory.
+        id: anonymised id.
+        views: view name -> :class:`View` (all four present).
+        scale_mm: ``(id_a, id_b)`` -> measured distance in mm (at least one).
+        notes: free text.
+    """
+
+    root: Path
+    id: str
+    views: dict[str, View]
+    scale_mm: dict[tuple[str, str], float]
+    notes: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def image_path(self, view: str) -> Path:
+        return self.root / self.views[view].image
+
+    def load_image(self, view: str) -> np.ndarray:
+        """(H, W, 3) uint8 BGR photo of ``view``."""
+        return read_image(self.image_path(view))
+
+    def observations(self) -> list[tuple[str, str, np.ndarray]]:
+        """All clicks of the 21 landmarks as (view, landmark id, (2,) px)."""
+        return [(v, lid, xy) for v, view in self.views.items()
+                for lid, xy in view.landmarks.items() if lid in LANDMARK_IDS]
+
+    def to_json(self) -> dict[str, Any]:
+        views = {}
+        for name, v in self.views.items():
+            entry: dict[str, Any] = {
+                "image": v.image,
+                "landmarks": {k: [float(x) for x in xy] for k, xy in v.landmarks.items()},
+            }
+            if v.camera:
+                entry["camera"] = v.camera
+            views[name] = entry
+        out: dict[str, Any] = {
+            "format": CASE_FORMAT,
+            "id": self.id,
+            "views": views,
+            "scale_mm": {f"{a}-{b}": float(d) for (a, b), d in self.scale_mm.items()},
+        }
+        if self.notes:
+            out["notes"] = self.notes
+        out.update(self.extra)
+        return out
+
+
+def _err(path: Path, key: str, expected: str) -> NaseviewError:
+    return NaseviewError(f"{path}: key {key!r}: {expected}")
+
+
+def parse_scale_key(key: str) -> tuple[str, str] | None:
+    """``"al_l-al_r"`` -> ``("al_l", "al_r")``; ``None`` if not two known landmark ids."""
+    parts = key.split("-")
+    if len(parts) != 2 or parts[0] == parts[1]:
+        return None
+    if parts[0] not in LANDMARK_IDS or parts[1] not in LANDMARK_IDS:
+        return None
+    return parts[0], parts[1]
+
+
+def _parse_point(path: Path, key: str, value: Any, width: int, height: int) -> np.ndarray:
+    if (not isinstance(value, (list, tuple)) or len(value) != 2
+            or not all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in value)):
+        raise _err(path, key, "expected [x, y] pixel coordinates (two numbers)")
+    x, y = float(value[0]), float(value[1])
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise _err(path, key, "coordinates must be finite numbers")
+    if not (-0.5 <= x <= width - 0.5 and -0.5 <= y <= height - 0.5):
+        raise _err(path, key, f"point [{x:g}, {y:g}] lies outside the {width}x{height} "
+                              "image; re-click it inside the photo")
+    return np.array([x, y])
+
+
+def _parse_camera(path: Path, key: str, value: Any) -> dict[str, Any]:
+    if not isinstance(value, dict):
+        raise _err(path, key, 'expected {"focal_px": f} or {"K": 3x3 matrix}')
+    if "K" in value:
+        try:
+            K = np.asarray(value["K"], dtype=np.float64)
+        except (TypeError, ValueError):
+            K = np.zeros(0)
+        if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
+            raise _err(path, key + ".K", "expected a 3x3 intrinsics matrix with fx, fy > 0")
+        return {"K": K.tolist()}
+    if "focal_px" in value:
+        f = value["focal_px"]
+        if not isinstance(f, (int, float)) or isinstance(f, bool) or not f > 0:
+            raise _err(path, key + ".focal_px", "expected a positive focal length in pixels")
+        return {"focal_px": float(f)}
+    raise _err(path, key, 'expected {"focal_px": f} or {"K": 3x3 matrix}')
+
+
+def parse_case(obj: dict[str, Any], root: Path, json_path: Path | None = None,
+               check_images: bool = True) -> Case:
+    """Validate a parsed ``case.json`` object whose photos live in ``root``.
+
+    Raises:
+        NaseviewError: one line naming the file, the key and what was expected.
+    """
+    path = json_path or root / "case.json"
+    fmt = obj.get("format")
+    if fmt != CASE_FORMAT:
+        raise _err(path, "format", f"expected {CASE_FORMAT!r}, found {fmt!r}")
+    views_obj = obj.get("views")
+    if not isinstance(views_obj, dict):
+        raise _err(path, "views", "expected an object with front, left, right, bottom")
+    views: dict[str, View] = {}
+    for name in VIEWS:
+        if name not in views_obj:
+            raise _err(path, f"views.{name}", "missing; all four views are required "
+                                              "(front, left, right, bottom)")
+        v = views_obj[name]
+        if not isinstance(v, dict):
+            raise _err(path, f"views.{name}", "expected an object with image and landmarks")
+        image = v.get("image")
+        if not isinstance(image, str) or not image:
+            raise _err(path, f"views.{name}.image", "expected the photo's file name")
+        if check_images:
+            img_path = root / image
+            if not img_path.is_file():
+                raise _err(path, f"views.{name}.image",
+                           f"photo {img_path} not found; put it next to case.json")
+            width, height = image_size(img_path)
+        else:
+            width, height = int(v.get("width", 0)), int(v.get("height", 0))
+        lms = v.get("landmarks", {})
+        if not isinstance(lms, dict):
+            raise _err(path, f"views.{name}.landmarks", 'expected {"id": [x, y], ...}')
+        points: dict[str, np.ndarray] = {}
+        for lid, xy in lms.items():
+            key = f"views.{name}.landmarks.{lid}"
+            if lid not in ALL_IDS:
+                raise _err(path, key, "unknown landmark id; known ids: " + ", ".join(ALL_IDS))
+            points[lid] = _parse_point(path, key, xy, width or 10**9, height or 10**9)
+        camera = _parse_camera(path, f"views.{name}.camera", v["camera"]) \
+            if v.get("camera") is not None else None
+        views[name] = View(name, image, points, width, height, camera)
+    scale_obj = obj.get("scale_mm")
+    if not isinstance(scale_obj, dict) or not scale_obj:
+        raise _err(path, "scale_mm", 'missing; give at least one calliper distance in mm, '
+                                     'e.g. "scale_mm": {"al_l-al_r": 34.5}')
+    scale: dict[tuple[str, str], float] = {}
+    for key, d in scale_obj.items():
+        pair = parse_scale_key(key)
+        if pair is None:
+            raise _err(path, f"scale_mm.{key}",
+                       'expected "<id>-<id>" of two different landmarks, e.g. "al_l-al_r"')
+        if not isinstance(d, (int, float)) or isinstance(d, bool) or not (0 < d < 500):
+            raise _err(path, f"scale_mm.{key}", "expected a positive distance in mm")
+        scale[pair] = float(d)
+    case_id = obj.get("id", root.name)
+    if not isinstance(case_id, str):
+        raise _err(path, "id", "expected a string")
+    notes = obj.get("notes", "")
+    known = {"format", "id", "views", "scale_mm", "notes"}
+    extra = {k: val for k, val in obj.items() if k not in known}
+    return Case(root=root, id=case_id, views=views, scale_mm=scale,
+                notes=notes if isinstance(notes, str) else "", extra=extra)
+
+
+def read_case(case_dir: str | os.PathLike[str]) -> Case:
+    """Read and validate a case directory (SPEC §3).
+
+    Args:
+        case_dir: directory holding ``case.json`` and the four photos.
+    Raises:
+        NaseviewError: missing file, unreadable image, unknown landmark id, coordinates
+            outside the image, missing ``scale_mm``, ...
+    """
+    root = Path(case_dir)
+    if not root.is_dir():
+        raise NaseviewError(f"{root}: case directory not found")
+    json_path = root / "case.json"
+    if not json_path.is_file():
+        raise NaseviewError(f"{json_path}: file not found; a case directory needs case.json "
+                            "(SPEC §3)")
+    return parse_case(read_json(json_path), root, json_path)
+
+
+def write_case(case: Case, out_dir: str | os.PathLike[str],
+               images: dict[str, np.ndarray] | None = None) -> Path:
+    """Write ``case`` to ``out_dir`` (photos, then ``case.json`` last), each file atomically.
+
+    ``images`` maps view -> (H, W, 3) uint8 BGR; views missing from it are copied from
+    ``case.root``. Everything is validated before the first byte is written.
+
+    Returns:
+        the path of the written ``case.json``.
+    """
+    out = Path(out_dir)
+    images = images or {}
+    for name, v in case.views.items():
+        if name not in images and not (case.root / v.image).is_file():
+            raise NaseviewError(f"{case.root / v.image}: photo for view {name!r} not found")
+    parse_case(case.to_json(), case.root, check_images=False)  # validates ids and values
+    out.mkdir(parents=True, exist_ok=True)
+    for name, v in case.views.items():
+        if name in images:
+            write_image(out / v.image, images[name])
+        elif (case.root / v.image).resolve() != (out / v.image).resolve():
+            fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{v.image}.", suffix=".tmp")
+            os.close(fd)
+            shutil.copyfile(case.root / v.image, tmp)
+            os.replace(tmp, out / v.image)
+    return atomic_write_json(out / "case.json", case.to_json())

@@ -1,0 +1,140 @@
+"""The ``naseview`` command: one subcommand per job, each a thin call into the library.
+
+Errors meant for the user (:class:`~naseview.errors.NaseviewError`) print as one line and
+exit with status 2; nothing here does real work itself.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from naseview.errors import NaseviewError
+
+
+def _cmd_synth(args: argparse.Namespace) -> int:
+    from naseview.synth import synth_command
+
+    return synth_command(args)
+
+
+def _cmd_sheet(args: argparse.Namespace) -> int:
+    from naseview.sheet import sheet_command
+
+    return sheet_command(args)
+
+
+def _cmd_reconstruct(args: argparse.Namespace) -> int:
+    from naseview.pipeline import reconstruct_command
+
+    return reconstruct_command(args)
+
+
+def _cmd_evaluate(args: argparse.Namespace) -> int:
+    from naseview.evaluate import evaluate_command
+
+    return evaluate_command(args)
+
+
+def _cmd_serve(args: argparse.Namespace) -> int:
+    from naseview.app.serve import serve_command
+
+    return serve_command(args)
+
+
+def _cmd_model(args: argparse.Namespace) -> int:
+    from naseview.facemodel.store import model_command
+
+    return model_command(args)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="naseview",
+        description="3D nose reconstruction from four photos and 21 landmarks "
+                    "(Toan, Tuan, Thinh, CMES 2025), without neural networks.")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    s = sub.add_parser("synth", help="render synthetic cases with known ground truth")
+    s.add_argument("out_dir", type=Path, help="output case directory (a parent with --batch)")
+    s.add_argument("--model", default="ict",
+                   help="face model of the synthetic identity: ict, generic or a .npz path")
+    s.add_argument("--seed", type=int, default=0, help="random seed (identity, rig, skin)")
+    s.add_argument("--noise-px", type=float, default=1.5,
+                   help="Gaussian click noise, pixels (default 1.5)")
+    s.add_argument("--size", type=int, default=1024, help="photo size in pixels")
+    s.add_argument("--batch", type=int, default=0,
+                   help="write N cases case-000.. under OUT_DIR (seeds 0..N-1 + --seed)")
+    s.add_argument("--image-noise", type=float, default=2.0,
+                   help="photo sensor noise, grey levels (0 for none)")
+    s.set_defaults(func=_cmd_synth)
+
+    s = sub.add_parser("sheet", help="PNG contact sheet of a case's photos with clicks")
+    s.add_argument("case_dir", type=Path)
+    s.add_argument("-o", "--output", type=Path, required=True, help="PNG file to write")
+    s.add_argument("--reconstruction", type=Path, default=None,
+                   help="also draw reprojected landmarks and curves of this reconstruction")
+    s.set_defaults(func=_cmd_sheet)
+
+    s = sub.add_parser("reconstruct", help="reconstruct a case directory")
+    s.add_argument("case_dir", type=Path)
+    s.add_argument("-o", "--output", type=Path, required=True, help="output directory")
+    s.add_argument("--model", default=None,
+                   help="base face model: ict, generic or a .npz path (default: ict if "
+                        "installed, else generic)")
+    s.add_argument("--export", action="append", default=[], choices=["stl", "obj", "glb"],
+                   help="also export face and nose meshes in this format (repeatable)")
+    s.add_argument("--stages", default="1,2,3", help="stages to run, e.g. 1 or 1,2")
+    s.set_defaults(func=_cmd_reconstruct)
+
+    s = sub.add_parser("evaluate", help="accuracy against synthetic ground truth (paper "
+                                        "Tables 1, 2, 4, 5 and surface error)")
+    s.add_argument("case_dirs", type=Path, nargs="+")
+    s.add_argument("--json", action="store_true", help="print machine-readable JSON")
+    s.add_argument("--model", default=None, help="base face model for stage 3")
+    s.add_argument("--stages", default="1,2,3", help="stages to run and evaluate")
+    s.set_defaults(func=_cmd_evaluate)
+
+    s = sub.add_parser("serve", help="open the 3D viewer / editor in the browser")
+    s.add_argument("path", type=Path, nargs="?", default=None,
+                   help="case directory, reconstruction directory or session file "
+                        "(default: the bundled demo case)")
+    s.add_argument("--host", default="127.0.0.1",
+                   help="interface to bind (default 127.0.0.1: this computer only)")
+    s.add_argument("--port", type=int, default=8080)
+    s.add_argument("--model", default=None, help="base face model for reconstruction")
+    s.set_defaults(func=_cmd_serve)
+
+    s = sub.add_parser("model", help="install or inspect face models")
+    msub = s.add_subparsers(dest="model_command", required=True, metavar="ACTION")
+    m = msub.add_parser("import-ict", help="import an ICT-FaceKit checkout (or its "
+                                           "FaceXModel folder, or a converted .npz)")
+    m.add_argument("source", type=Path)
+    m.set_defaults(func=_cmd_model)
+    m = msub.add_parser("fetch", help="download the ICT Face Model files from GitHub "
+                                      "(the only network access naseview makes)")
+    m.add_argument("--url", default=None, help="alternative base URL of FaceXModel/")
+    m.set_defaults(func=_cmd_model)
+    m = msub.add_parser("info", help="list installed face models")
+    m.set_defaults(func=_cmd_model)
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``naseview`` console command."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except NaseviewError as e:
+        print(f"naseview: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("naseview: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())
