@@ -7,6 +7,7 @@ exit with status 2; nothing here does real work itself.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -134,6 +135,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("naseview: interrupted", file=sys.stderr)
         return 130
+    except Exception as e:  # a bug, not a user error: still one line unless debugging
+        if os.environ.get("NASEVIEW_DEBUG"):
+            raise
+        print(f"naseview: internal error: {type(e).__name__}: {e} (set NASEVIEW_DEBUG=1 "
+              "for the traceback and please report it)", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":
