@@ -340,12 +340,12 @@ def _modelled_eyes(model: FaceModel) -> dict[str, tuple[np.ndarray, np.ndarray]]
     """
     if model.name != "generic":
         return {}
-    from naseview.facemodel.generic import _fissure
+    from naseview.facemodel.generic import eye_fissure
 
     x, y = model.mean[:, 0], model.mean[:, 1]
     out = {}
     for (cx, cy), side, sign in zip(GENERIC_EYES_MM, ("l", "r"), (1.0, -1.0), strict=True):
-        ind, _, _ = _fissure(x, y, sign)
+        ind, _, _ = eye_fissure(x, y, sign)
         out[side] = (np.asarray(ind, dtype=float), np.hypot(x - cx, y - cy))
     return out
 
@@ -604,13 +604,13 @@ def _paint_modelled_eyes(mean_xy: np.ndarray, N: np.ndarray, C: np.ndarray,
     Returns:
         the new albedo and highlight multipliers.
     """
-    from naseview.facemodel.generic import _fissure
+    from naseview.facemodel.generic import eye_fissure
 
     x, y = mean_xy[:, 0], mean_xy[:, 1]
     C = C.copy()
     spec = spec.copy()
     for (cx, cy), sign in zip(GENERIC_EYES_MM, (1.0, -1.0), strict=True):
-        ind, _, _ = _fissure(x, y, sign)
+        ind, _, _ = eye_fissure(x, y, sign)
         r = np.hypot(x - cx, y - cy)
         iris_w = _smoothstep((5.6 - r) / 0.5)
         pupil_w = _smoothstep((2.2 - r) / 0.4)
