@@ -1,0 +1,497 @@
+"""Accuracy against synthetic ground truth: ``naseview evaluate CASE_DIRS... [--json]``.
+
+For each case directory with a ``truth.json`` (SPEC §7) the pipeline runs and every
+registered :class:`Section` measures the result against the truth; the sections then
+summarise over the cases and one printer (:func:`format_report`) lays them out as the
+paper's tables:
+
+- ``table1``: the 11 landmark distances of the paper's Table 1 (SPEC §6): per case the
+  absolute error |d_pred - d_true| (mm), over the cases the mean and its 95 % confidence
+  interval (t distribution), and %Error = mean |d_pred - d_true| / d_true (paper eq. 22);
+- ``table2``: mean absolute error of n-prn and prn-sn (the paper's Table 2);
+- ``landmarks``: 3D landmark RMSE after the best rigid alignment (Kabsch, no scaling, so a
+  scale error counts).
+
+Later stages add their sections to :data:`SECTIONS` (e.g. the boundary-curve Tables 4
+and 5, surface distances). A section computes a dict per case from a :class:`CaseRun`,
+summarises the list of those dicts, and formats lines; everything stays JSON-ready.
+
+Example
+-------
+>>> report = evaluate_cases(["/tmp/synth/case-000"], stages=(1,))   # doctest: +SKIP
+>>> print(format_report(report))                                    # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from naseview.errors import NaseviewError
+from naseview.landmarks import TABLE1_DISTANCES, TABLE2_DISTANCES
+from naseview.reconstruction import Reconstruction, read_reconstruction
+
+PAPER_TABLE1_MEAN_MM: dict[str, float] = {
+    "mf_l-mf_r": 0.422, "int_l-int_r": 0.957, "alp_l-alp_r": 1.094, "ac_l-ac_r": 0.545,
+    "md_l-md_r": 0.542, "g-n": 0.401, "n-prn": 1.253, "prn-c": 0.353, "int_l-ac_l": 0.476,
+    "int_r-ac_r": 0.325, "c-sn": 0.469,
+}
+"""The paper's Table 1, "Mean of All Volunteers" column (mm), for reference."""
+
+PAPER_TABLE1_OVERALL = {"mean_error_mm": 0.631, "percent_error": 2.894}
+PAPER_TABLE2_MEAN_MM = 1.034
+
+
+# --------------------------------------------------------------------------- metrics
+
+
+def _key(a: str, b: str) -> str:
+    return f"{a}-{b}"
+
+
+def _dist(points: dict[str, np.ndarray], a: str, b: str) -> float:
+    if a not in points or b not in points:
+        return math.nan
+    return float(np.linalg.norm(np.asarray(points[a]) - np.asarray(points[b])))
+
+
+def distance_errors(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray],
+                    pairs: Sequence[tuple[str, str]]) -> dict[str, dict[str, float]]:
+    """Per pair ``"a-b"``: true and predicted distance and absolute error (mm; NaN when a
+    landmark is missing from the prediction)."""
+    out = {}
+    for a, b in pairs:
+        dt, dp = _dist(truth, a, b), _dist(pred, a, b)
+        out[_key(a, b)] = {"true_mm": dt, "pred_mm": dp, "error_mm": abs(dp - dt)}
+    return out
+
+
+def table1_case(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Paper Table 1 for one case: per distance errors, their mean (mm) and %Error."""
+    d = distance_errors(pred, truth, TABLE1_DISTANCES)
+    err = np.array([v["error_mm"] for v in d.values()])
+    rel = np.array([v["error_mm"] / v["true_mm"] for v in d.values()])
+    ok = np.isfinite(err)
+    return {"distances": d,
+            "mean_error_mm": float(err[ok].mean()) if ok.any() else math.nan,
+            "percent_error": float(100.0 * rel[ok].mean()) if ok.any() else math.nan,
+            "missing": int((~ok).sum())}
+
+
+def table2_case(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Paper Table 2 for one case: |error| of n-prn and prn-sn and their mean (mm)."""
+    d = distance_errors(pred, truth, TABLE2_DISTANCES)
+    err = np.array([v["error_mm"] for v in d.values()])
+    ok = np.isfinite(err)
+    return {"distances": d, "mean_error_mm": float(err[ok].mean()) if ok.any() else math.nan}
+
+
+def kabsch(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rotation R (3, 3) and translation t (3,) minimising sum |R p + t - q|^2 (no scale).
+
+    Args:
+        P, Q: (N, 3) corresponding points, N >= 3.
+    """
+    pc, qc = P.mean(0), Q.mean(0)
+    u, _, vt = np.linalg.svd((P - pc).T @ (Q - qc))
+    d = np.sign(np.linalg.det(u @ vt)) or 1.0
+    R = (u @ np.diag([1.0, 1.0, d]) @ vt).T
+    return R, qc - R @ pc
+
+
+def landmark_rmse_case(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]
+                       ) -> dict[str, Any]:
+    """3D landmark errors (mm) after rigid alignment of the prediction onto the truth."""
+    ids = [i for i in pred if i in truth]
+    if len(ids) < 3:
+        return {"rmse_mm": math.nan, "max_mm": math.nan, "n": len(ids), "per_landmark_mm": {}}
+    P = np.array([pred[i] for i in ids], dtype=np.float64)
+    Q = np.array([truth[i] for i in ids], dtype=np.float64)
+    R, t = kabsch(P, Q)
+    e = np.linalg.norm(P @ R.T + t - Q, axis=1)
+    return {"rmse_mm": float(np.sqrt(np.mean(e**2))), "max_mm": float(e.max()), "n": len(ids),
+            "per_landmark_mm": {i: float(x) for i, x in zip(ids, e, strict=True)}}
+
+
+def mean_ci95(values: Iterable[float]) -> dict[str, float]:
+    """Mean and 95 % confidence interval of the mean (t distribution) of finite values."""
+    from scipy.stats import t as student_t
+
+    x = np.array([v for v in values if v is not None and math.isfinite(v)], dtype=np.float64)
+    n = len(x)
+    if n == 0:
+        return {"mean": math.nan, "ci_low": math.nan, "ci_high": math.nan, "n": 0}
+    m = float(x.mean())
+    if n == 1:
+        return {"mean": m, "ci_low": math.nan, "ci_high": math.nan, "n": 1}
+    h = float(student_t.ppf(0.975, n - 1) * x.std(ddof=1) / math.sqrt(n))
+    return {"mean": m, "ci_low": m - h, "ci_high": m + h, "n": n}
+
+
+# --------------------------------------------------------------------------- sections
+
+
+@dataclass
+class CaseRun:
+    """One evaluated case: its directory, the truth and the pipeline result."""
+
+    case_dir: Path
+    case: Any
+    truth: Reconstruction
+    result: Any  # naseview.pipeline.PipelineResult
+    stages: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Section:
+    """One block of the report.
+
+    Attributes:
+        key: JSON key (``"table1"``).
+        title: printed heading.
+        stage: the stage whose output it measures (skipped when that stage did not run).
+        per_case: CaseRun -> JSON-ready dict.
+        summarize: list of per-case dicts -> JSON-ready dict.
+        format: (per-case dicts, summary, case ids) -> printed lines.
+    """
+
+    key: str
+    title: str
+    stage: int
+    per_case: Callable[[CaseRun], dict[str, Any]]
+    summarize: Callable[[list[dict[str, Any]]], dict[str, Any]]
+    format: Callable[[list[dict[str, Any]], dict[str, Any], list[str]], list[str]]
+
+
+def _fmt(x: Any, digits: int = 3) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "-"
+    return f"{x:.{digits}f}"
+
+
+def _table1_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    per = {}
+    for a, b in TABLE1_DISTANCES:
+        k = _key(a, b)
+        per[k] = mean_ci95(c["distances"][k]["error_mm"] for c in cases)
+    all_err = [c["distances"][k]["error_mm"] for c in cases for k in per]
+    return {"distances": per, "mean_error_mm": mean_ci95(all_err)["mean"],
+            "percent_error": mean_ci95(c["percent_error"] for c in cases),
+            "case_mean_error_mm": mean_ci95(c["mean_error_mm"] for c in cases)}
+
+
+def _table1_format(cases: list[dict[str, Any]], summ: dict[str, Any],
+                   ids: list[str]) -> list[str]:
+    show = ids if len(ids) <= 4 else []  # per-case columns like the paper's A-D
+    w = max([len(i) for i in show] + [8]) + 2
+    head = f"{'distance':<12}" + "".join(f"{i:>{w}}" for i in show)
+    head += f"{'mean':>9}{'95% CI':>18}{'paper':>8}"
+    lines = [head]
+    for k, s in summ["distances"].items():
+        row = f"{k:<12}" + "".join(f"{_fmt(c['distances'][k]['error_mm']):>{w}}"
+                                   for c in cases[:len(show)])
+        ci = f"[{_fmt(s['ci_low'])}, {_fmt(s['ci_high'])}]"
+        lines.append(row + f"{_fmt(s['mean']):>9}{ci:>18}{PAPER_TABLE1_MEAN_MM[k]:>8.3f}")
+    pe = summ["percent_error"]
+    row = f"{'%Error':<12}" + "".join(f"{_fmt(c['percent_error'], 2) + '%':>{w}}"
+                                      for c in cases[:len(show)])
+    ci = f"[{_fmt(pe['ci_low'], 2)}, {_fmt(pe['ci_high'], 2)}]%"
+    lines.append(row + f"{_fmt(pe['mean'], 2) + '%':>9}{ci:>18}"
+                       f"{PAPER_TABLE1_OVERALL['percent_error']:>7.3f}%")
+    lines.append(f"mean error over all distances: {_fmt(summ['mean_error_mm'])} mm "
+                 f"(paper {PAPER_TABLE1_OVERALL['mean_error_mm']:.3f} mm)")
+    return lines
+
+
+def _table2_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    vals = [c["mean_error_mm"] for c in cases]
+    finite = [v for v in vals if math.isfinite(v)]
+    out = {"mean_error_mm": mean_ci95(vals),
+           "min_mm": min(finite) if finite else math.nan,
+           "max_mm": max(finite) if finite else math.nan}
+    for a, b in TABLE2_DISTANCES:
+        out[_key(a, b)] = mean_ci95(c["distances"][_key(a, b)]["error_mm"] for c in cases)
+    return out
+
+
+def _table2_format(cases: list[dict[str, Any]], summ: dict[str, Any],
+                   ids: list[str]) -> list[str]:
+    m = summ["mean_error_mm"]
+    parts = ", ".join(f"{_key(a, b)} {_fmt(summ[_key(a, b)]['mean'])}"
+                      for a, b in TABLE2_DISTANCES)
+    return [f"mean absolute error {_fmt(m['mean'])} mm (95% CI [{_fmt(m['ci_low'])}, "
+            f"{_fmt(m['ci_high'])}]; min {_fmt(summ['min_mm'])}, max {_fmt(summ['max_mm'])}; "
+            f"paper {PAPER_TABLE2_MEAN_MM:.3f} mm)", parts]
+
+
+def _rmse_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    return {"rmse_mm": mean_ci95(c["rmse_mm"] for c in cases),
+            "max_mm": max((c["max_mm"] for c in cases if math.isfinite(c["max_mm"])),
+                          default=math.nan)}
+
+
+def _rmse_format(cases: list[dict[str, Any]], summ: dict[str, Any],
+                 ids: list[str]) -> list[str]:
+    r = summ["rmse_mm"]
+    return [f"landmark RMSE after rigid alignment: mean {_fmt(r['mean'])} mm "
+            f"(95% CI [{_fmt(r['ci_low'])}, {_fmt(r['ci_high'])}]), worst landmark "
+            f"{_fmt(summ['max_mm'])} mm"]
+
+
+def _landmarks(run: CaseRun) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    return run.result.reconstruction.landmarks, run.truth.landmarks
+
+
+SECTIONS: list[Section] = [
+    Section("table1", "Table 1: landmark distance error (mm)", 1,
+            lambda r: table1_case(*_landmarks(r)), _table1_summary, _table1_format),
+    Section("table2", "Table 2: n-prn and prn-sn absolute error (mm)", 1,
+            lambda r: table2_case(*_landmarks(r)), _table2_summary, _table2_format),
+    Section("landmarks", "3D landmarks", 1,
+            lambda r: landmark_rmse_case(*_landmarks(r)), _rmse_summary, _rmse_format),
+]
+"""The report's sections, in print order. Later stages append theirs."""
+
+
+# --------------------------------------------------------------------------- stage 2 [S2]
+
+
+def boundary_case(run: CaseRun) -> dict[str, Any]:
+    """Paper Tables 4-5 for one case: boundary MAE and Hausdorff (mm) per curve family.
+
+    The reconstructed curves are projected with the reconstructed cameras into the photos
+    of ``truth_boundaries.json``; px -> mm with the true front-view scale at al_l-al_r
+    (:func:`naseview.curves.metrics.boundary_errors`). Empty without the truth file.
+    """
+    from naseview.curves.metrics import boundary_errors, px_per_mm_from_truth
+    from naseview.fileio import read_json
+
+    path = run.case_dir / "truth_boundaries.json"
+    if not path.is_file() or "front" not in run.truth.cameras:
+        return {}
+    rec = run.result.reconstruction
+    ppm = px_per_mm_from_truth(run.truth.landmarks, run.truth.cameras["front"])
+    return boundary_errors(rec.curves, rec.cameras, read_json(path), ppm)
+
+
+def _boundary_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    from naseview.landmarks import CURVE_FAMILIES
+
+    cases = [c for c in cases if c]
+    fams = {f: {m: mean_ci95(c["families"][f][m] for c in cases if f in c["families"])
+                for m in ("mae_mm", "hausdorff_mm")} for f in CURVE_FAMILIES}
+    return {"families": fams, "mean_mae_mm": mean_ci95(c["mean_mae_mm"] for c in cases),
+            "mean_hausdorff_mm": mean_ci95(c["mean_hausdorff_mm"] for c in cases)}
+
+
+def _boundary_format(cases: list[dict[str, Any]], summ: dict[str, Any],
+                     ids: list[str]) -> list[str]:
+    from naseview.curves.metrics import FAMILY_LABELS, PAPER_TABLE4_MAE, PAPER_TABLE5_HAUSDORFF
+
+    lines = [f"{'boundary':<14}{'MAE':>8}{'95% CI':>15}{'paper':>8}{'Hausdorff':>11}"
+             f"{'paper':>8}"]
+    for f, s in summ["families"].items():
+        m, h = s["mae_mm"], s["hausdorff_mm"]
+        ci = f"{_fmt(m['ci_low'])}-{_fmt(m['ci_high'])}"
+        lines.append(f"{FAMILY_LABELS[f]:<14}{_fmt(m['mean']):>8}{ci:>15}"
+                     f"{PAPER_TABLE4_MAE[f]:>8.3f}{_fmt(h['mean']):>11}"
+                     f"{PAPER_TABLE5_HAUSDORFF[f]:>8.3f}")
+    lines.append(f"{'Mean':<14}{_fmt(summ['mean_mae_mm']['mean']):>8}{'':>15}"
+                 f"{np.mean(list(PAPER_TABLE4_MAE.values())):>8.3f}"
+                 f"{_fmt(summ['mean_hausdorff_mm']['mean']):>11}"
+                 f"{np.mean(list(PAPER_TABLE5_HAUSDORFF.values())):>8.3f}")
+    return lines
+
+
+SECTIONS.append(Section("tables45", "Tables 4-5: boundary-curve MAE and Hausdorff (mm)", 2,
+                        boundary_case, _boundary_summary, _boundary_format))
+
+
+# --------------------------------------------------------------------------- stage 3 [S3]
+
+
+def surface_case(run: CaseRun) -> dict[str, Any]:
+    """SPEC §6 surface figures of one case and the stage-3 ablation on the same inputs.
+
+    Nose samples of ``truth_face.ply`` (truth landmarks outline the nose) to the refined
+    mesh after rigid landmark alignment (:func:`naseview.refine.surface_error`), for the
+    pipeline's mesh and for each :data:`naseview.refine.ABLATION_ROWS` variant.
+    """
+    from naseview.meshio import read_mesh
+    from naseview.refine import ablation, nose_surface_samples, surface_error
+
+    refined = run.result.refined
+    rec = run.result.reconstruction
+    if refined is None or not (run.case_dir / "truth_face.ply").is_file():
+        return {}
+    tV, tF = read_mesh(run.case_dir / "truth_face.ply")
+    samples = nose_surface_samples(tV, tF, run.truth.landmarks)
+    out: dict[str, Any] = {"pipeline": surface_error(tV, tF, run.truth.landmarks, refined.V,
+                                                     refined.F, rec.landmarks, samples=samples)}
+    if refined.model is not None:
+        params = getattr(getattr(run, "params", None), "refine", None)
+        out["ablation"] = ablation(refined.model, rec, tV, tF, run.truth.landmarks, params,
+                                   samples=samples)
+    return out
+
+
+def _surface_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    cases = [c for c in cases if c]
+    rows = ["pipeline"] + list(cases[0].get("ablation") or {}) if cases else []
+    out: dict[str, Any] = {}
+    for row in rows:
+        vals = [c["pipeline"] if row == "pipeline" else c["ablation"][row] for c in cases
+                if row == "pipeline" or row in c.get("ablation", {})]
+        out[row] = {k: mean_ci95(v[k] for v in vals) for k in ("mean_mm", "p95_mm")}
+    return out
+
+
+def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
+                    ids: list[str]) -> list[str]:
+    lines = [f"{'variant':<16}{'mean mm':>9}{'95% CI':>15}{'p95 mm':>9}"]
+    for row, s in summ.items():
+        m, p = s["mean_mm"], s["p95_mm"]
+        ci = f"{_fmt(m['ci_low'])}-{_fmt(m['ci_high'])}"
+        lines.append(f"{row:<16}{_fmt(m['mean']):>9}{ci:>15}{_fmt(p['mean']):>9}")
+    lines.append("paper's steps: fit = morphable-model fit (21 landmarks); arap21 / arap76 = + "
+                 "ARAP with the 21 landmarks / all ad-landmarks; arap76+smooth = + cotangent "
+                 "smoothing. fit+warp = fit bent smoothly to all ad-landmarks; naseview = "
+                 "the pipeline (naseview.refine.ABLATION_ROWS)")
+    return lines
+
+
+SECTIONS.append(Section("surface", "Nose surface error after rigid alignment (mm)", 3,
+                        surface_case, _surface_summary, _surface_format))
+
+
+# --------------------------------------------------------------------------- running
+
+
+def _case_info(run: CaseRun) -> dict[str, Any]:
+    res = run.result
+    sfm = res.sfm
+    return {
+        "case": run.case.id if run.case is not None else run.case_dir.name,
+        "dir": str(run.case_dir),
+        "stage_seconds": dict(res.stage_seconds),
+        "reprojection_rmse_px": float(sfm.reprojection_rmse_px) if sfm else math.nan,
+        "suspect_clicks": [s.to_json() for s in sfm.suspect_clicks] if sfm else [],
+        "warnings": list(res.warnings),
+    }
+
+
+def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]], model: Any = None,
+                   stages: Iterable[int] | str = (1, 2, 3), params: Any = None,
+                   progress: Callable[[str], Any] | None = None) -> dict[str, Any]:
+    """Run the pipeline on synthetic cases and measure every section against the truth.
+
+    Args:
+        case_dirs: case directories, each with ``truth.json`` (SPEC §7).
+        model, stages, params: passed to :func:`naseview.pipeline.reconstruct`.
+        progress: called with one line per finished case.
+    Returns:
+        ``{"cases": [per-case dict], "failed": [{"case", "error"}], "summary":
+        {section key: summary}, "stages": [...]}`` (JSON-ready, NaN for missing values).
+    Raises:
+        NaseviewError: a directory without ``truth.json`` or ``case.json``.
+    """
+    from naseview.case import read_case
+    from naseview.pipeline import parse_stages, reconstruct
+
+    stages = parse_stages(stages)
+    if isinstance(model, str):
+        from naseview.facemodel import load_face_model
+
+        model = load_face_model(model) if 3 in stages else model
+    runs: list[CaseRun] = []
+    cases: list[dict[str, Any]] = []
+    failed: list[dict[str, str]] = []
+    for d in case_dirs:
+        d = Path(d)
+        if not (d / "truth.json").is_file():
+            raise NaseviewError(f"{d / 'truth.json'}: file not found; evaluate needs synthetic "
+                                "cases with ground truth (naseview synth)")
+        truth = read_reconstruction(d / "truth.json")
+        case = read_case(d)
+        try:
+            result = reconstruct(case, model=model, stages=stages, params=params)
+        except NaseviewError as e:
+            failed.append({"case": case.id, "dir": str(d), "error": str(e)})
+            if progress:
+                progress(f"{d.name}: FAILED {e}")
+            continue
+        run = CaseRun(d, case, truth, result, stages)
+        info = _case_info(run)
+        for sec in SECTIONS:
+            if sec.stage in stages:
+                info[sec.key] = sec.per_case(run)
+        runs.append(run)
+        cases.append(info)
+        if progress:
+            t1 = info.get("table1", {}).get("mean_error_mm", math.nan)
+            progress(f"{d.name}: Table 1 mean error {_fmt(t1)} mm, stage times "
+                     + ", ".join(f"{k} {v:.2f} s" for k, v in result.stage_seconds.items()))
+    summary = {sec.key: sec.summarize([c[sec.key] for c in cases])
+               for sec in SECTIONS if sec.stage in stages and cases}
+    summary["converged"] = {"ok": len(cases), "failed": len(failed)}
+    for name in ("landmarks", "curves", "mesh"):
+        t = [c["stage_seconds"][name] for c in cases if name in c["stage_seconds"]]
+        if t:
+            summary.setdefault("stage_seconds_median", {})[name] = float(np.median(t))
+    return {"stages": list(stages), "cases": cases, "failed": failed, "summary": summary}
+
+
+def format_report(report: dict[str, Any]) -> str:
+    """The printed tables of an :func:`evaluate_cases` report."""
+    cases, summary = report["cases"], report["summary"]
+    ids = [c["case"] for c in cases]
+    conv = summary["converged"]
+    lines = [f"naseview evaluate: {conv['ok']} case(s) reconstructed, {conv['failed']} failed"]
+    for f in report["failed"]:
+        lines.append(f"  FAILED {f['case']}: {f['error']}")
+    for sec in SECTIONS:
+        if sec.key not in summary:
+            continue
+        lines += ["", sec.title]
+        lines += sec.format([c[sec.key] for c in cases], summary[sec.key], ids)
+    if "stage_seconds_median" in summary:
+        lines += ["", "median stage time: " + ", ".join(
+            f"{k} {v * 1000:.0f} ms" for k, v in summary["stage_seconds_median"].items())]
+    return "\n".join(lines)
+
+
+def _json_ready(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _json_ready(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_ready(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        x = float(obj)
+        return x if math.isfinite(x) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.ndarray):
+        return _json_ready(obj.tolist())
+    return obj
+
+
+def evaluate_command(args: argparse.Namespace) -> int:
+    """``naseview evaluate CASE_DIRS... [--json] [--stages 1,2,3] [--model M]``."""
+    quiet = bool(getattr(args, "json", False))
+    report = evaluate_cases(args.case_dirs, model=getattr(args, "model", None),
+                            stages=getattr(args, "stages", "1,2,3"),
+                            progress=None if quiet else (lambda s: print(s, flush=True)))
+    if quiet:
+        print(json.dumps(_json_ready(report), indent=1))
+    else:
+        print()
+        print(format_report(report))
+    return 0 if report["cases"] else 2
