@@ -45,6 +45,12 @@ def _cmd_serve(args: argparse.Namespace) -> int:
     return serve_command(args)
 
 
+def _cmd_report(args: argparse.Namespace) -> int:
+    from naseview.report import report_command
+
+    return report_command(args)
+
+
 def _cmd_model(args: argparse.Namespace) -> int:
     from naseview.facemodel.store import model_command
 
@@ -106,7 +112,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="interface to bind (default 127.0.0.1: this computer only)")
     s.add_argument("--port", type=int, default=8080)
     s.add_argument("--model", default=None, help="base face model for reconstruction")
+    s.add_argument("--new", action="store_true",
+                   help="start with the new-patient page: upload four photos and click the "
+                        "landmarks (kept in $NASEVIEW_WORK_DIR or ~/naseview-patients)")
     s.set_defaults(func=_cmd_serve)
+
+    s = sub.add_parser("report", help="consultation report (self-contained HTML + PNGs) "
+                                      "from a session file or a reconstruction directory")
+    s.add_argument("path", type=Path,
+                   help="session .json saved from the app (before + after) or a "
+                        "`naseview reconstruct` output directory (before only)")
+    s.add_argument("-o", "--output", type=Path, default=None,
+                   help="HTML file to write (default: report.html beside PATH)")
+    s.add_argument("--deidentified", action="store_true",
+                   help="leave out the photos and notes; render the nose region only")
+    s.add_argument("--case", type=Path, default=None,
+                   help="case directory with the photos (default: the one PATH names)")
+    s.set_defaults(func=_cmd_report)
 
     s = sub.add_parser("model", help="install or inspect face models")
     msub = s.add_subparsers(dest="model_command", required=True, metavar="ACTION")

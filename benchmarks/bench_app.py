@@ -1,0 +1,159 @@
+"""Drag-update latency and bytes per update of the app on the ICT face (server side).
+
+A drag is replayed as the browser sends it: ``drag_to`` every 50 ms (viser throttles drag
+events to ~20 Hz), through the app's real path (controller -> worker -> stage 3 solve ->
+scene update on a running viser server, no browser). For every request the latency is
+the time from ``drag_to`` until a scene update covering it has been queued for the
+browsers (the solve of a later request covers an earlier, dropped one). Bytes are the
+serialised size (msgpack + raw arrays, before zstd) of the messages queued per update.
+
+Usage: ``python benchmarks/bench_app.py [--steps 60] [--landmarks prn,al_l,r]``.
+Needs the ICT model (``NASEVIEW_ICT_MODEL`` or an installed one).
+
+Targets (issue 6): median <= 50 ms, p95 <= 100 ms, >= 10 updates per second.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import threading
+import time
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+SHARED_ICT = Path(__file__).resolve().parents[2] / "shared" / "data" / "ict-face-model"
+
+
+def message_bytes(message: object) -> int:
+    """Serialised size of one viser message (msgpack + binary buffers)."""
+    import msgspec
+
+    buffers: list[memoryview] = []
+    d = message.as_serializable_dict(buffers)  # type: ignore[attr-defined]
+    return len(msgspec.msgpack.encode(d)) + sum(b.nbytes for b in buffers)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--steps", type=int, default=60, help="drag events per drag")
+    ap.add_argument("--landmarks", default="prn,al_l,r", help="landmarks to drag")
+    ap.add_argument("--interval-ms", type=float, default=50.0)
+    ap.add_argument("--amplitude-mm", type=float, default=4.0)
+    args = ap.parse_args()
+    if "NASEVIEW_ICT_MODEL" not in os.environ and (SHARED_ICT / "ict_face_light.npz").is_file():
+        os.environ["NASEVIEW_ICT_MODEL"] = str(SHARED_ICT / "ict_face_light.npz")
+
+    import viser
+
+    from naseview.app.serve import NaseviewApp, baseline_from_face_model
+    from naseview.facemodel import load_face_model
+
+    model = load_face_model("ict")
+    baseline = baseline_from_face_model(model)
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    app = NaseviewApp(server)
+    t0 = time.perf_counter()
+    app.open_baseline(baseline, case_id="ict-mean")
+    assert app.wait_ready(120), "app not ready"
+    t_ready = time.perf_counter() - t0
+    ctl = app.controller
+    scene = app.scene
+    assert ctl is not None and scene is not None
+
+    # bytes of every message queued, attributed to the update that queues it
+    lock = threading.Lock()
+    by_node: dict[str, int] = defaultdict(int)
+    total = [0]
+    ws = server._websock_server
+    orig = ws.queue_message
+
+    def counting(m: object) -> None:
+        n = message_bytes(m)
+        with lock:
+            total[0] += n
+            by_node[str(getattr(m, "name", type(m).__name__))] += n
+        orig(m)
+
+    ws.queue_message = counting  # type: ignore[method-assign]
+    done: dict[int, float] = {}
+    ctl.on_simulation.append(lambda s: done.setdefault(s.revision, time.perf_counter()))
+
+    rows = []
+    lat_all: list[float] = []
+    final_all: list[float] = []
+    solve_all: list[float] = []
+    nbytes: list[float] = []
+    rates: list[float] = []
+    for lid in args.landmarks.split(","):
+        p0 = ctl.landmarks[lid]
+        direction = np.array([0.3, 1.0, 0.5]) / np.linalg.norm([0.3, 1.0, 0.5])
+        ctl.begin_drag(lid)
+        sent: list[tuple[int, float]] = []
+        n_pub0 = len(done)
+        with lock:
+            total[0] = 0
+        ctl.solve_seconds.clear()
+        t_start = time.perf_counter()
+        for i in range(1, args.steps + 1):
+            target = p0 + direction * args.amplitude_mm * np.sin(np.pi * i / args.steps)
+            ctl.drag_to(lid, target)
+            sent.append((ctl._rev, time.perf_counter()))  # noqa: SLF001 - benchmark probe
+            time.sleep(max(0.0, t_start + i * args.interval_ms / 1000 - time.perf_counter()))
+        ctl.wait_idle(30)
+        t_drag = time.perf_counter() - t_start
+        with lock:
+            drag_bytes = total[0]
+        n_pub = len(done) - n_pub0
+        t_end = time.perf_counter()
+        ctl.end_drag()
+        ctl.wait_idle(30)
+        final = max(done.values()) - t_end
+        revs = np.array(sorted(done))
+        times = np.array([done[r] for r in revs])
+        lat = []
+        for rev, t in sent:
+            j = np.searchsorted(revs, rev)
+            if j < len(revs):
+                lat.append(times[j:].min() - t)
+        lat_ms = np.array(lat) * 1e3
+        lat_all += list(lat_ms)
+        final_all.append(final * 1e3)
+        solve_all += [s * 1e3 for s in ctl.solve_seconds]
+        nbytes.append(drag_bytes / max(1, n_pub))
+        rates.append(n_pub / t_drag)
+        rows.append((lid, np.median(lat_ms), np.percentile(lat_ms, 95), n_pub / t_drag,
+                     drag_bytes / max(1, n_pub) / 1024, final * 1e3))
+        ctl.undo()
+        ctl.wait_idle(30)
+
+    n_nose = len(scene.nose_ids)
+    print(f"ICT face: {len(baseline.V)} vertices, {len(baseline.F)} triangles; nose mesh sent "
+          f"live: {n_nose} vertices ({n_nose * 12 / 1024:.1f} KiB as float32); app ready in "
+          f"{t_ready:.1f} s; drag events every {args.interval_ms:g} ms, {args.steps} per drag")
+    print()
+    print(f"{'landmark':9s} {'median ms':>10s} {'p95 ms':>8s} {'updates/s':>10s} "
+          f"{'KiB/update':>11s} {'final solve ms':>15s}")
+    for lid, med, p95, rate, kib, fin in rows:
+        print(f"{lid:9s} {med:10.1f} {p95:8.1f} {rate:10.1f} {kib:11.1f} {fin:15.1f}")
+    lat = np.array(lat_all)
+    print()
+    print(f"{'metric':38s} {'value':>10s} {'target':>10s}")
+    print(f"{'drag-update latency, median (ms)':38s} {np.median(lat):10.1f} {'<= 50':>10s}")
+    print(f"{'drag-update latency, p95 (ms)':38s} {np.percentile(lat, 95):10.1f} {'<= 100':>10s}")
+    print(f"{'interactive solve alone, median (ms)':38s} {np.median(solve_all):10.1f} {'':>10s}")
+    print(f"{'visible updates per second, min':38s} {min(rates):10.1f} {'>= 10':>10s}")
+    print(f"{'bytes per update, mean (KiB)':38s} {np.mean(nbytes) / 1024:10.1f} {'':>10s}")
+    print(f"{'full solve at drag end, median (ms)':38s} {np.median(final_all):10.1f} {'':>10s}")
+    print()
+    print("bytes by scene node over all drags (KiB):",
+          ", ".join(f"{k} {v / 1024:.0f}" for k, v in
+                    sorted(by_node.items(), key=lambda kv: -kv[1])[:6]))
+    app.close()
+    server.stop()
+
+
+if __name__ == "__main__":
+    main()

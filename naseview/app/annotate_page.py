@@ -1,0 +1,1229 @@
+"""The "new patient" page: photo intake and guided landmark clicks in the browser.
+
+One photo at a time fills the 3D view: the photo is a scene image (``scene.add_image``) on
+a plane far away from the face (:data:`PLANE_CENTRE`), seen straight on by a camera the
+page places; a click anywhere in the view is a ray (``scene.on_click``) that is
+intersected with the photo plane to give pixels (:class:`PhotoPlane`). The left panel
+names the next landmark with a one-line description and a small diagram of where it is
+(a render of the face model with the point marked, cached per landmark); a click places
+it and the next one follows (:mod:`naseview.annotation` holds the order and every rule).
+Placed clicks are green rings that can be dragged; Undo and "Not visible" (skip) are one
+button each. Once enough clicks exist, the reprojection of the already reconstructed
+landmarks (quick stage 1 in a background worker) shows as a magenta ring where the
+next landmark should be, and as small cyan dots for the other remaining ones.
+
+"Reconstruct" writes the SPEC §3 case directory (``WORK/<id>/case``, rerunnable with
+``naseview reconstruct``) and opens it in the app (:class:`naseview.app.serve.NaseviewApp`),
+which reconstructs with progress in its panel. Every change is autosaved in
+``WORK/in-progress/<id>/`` and the page offers to resume it after a reload or restart.
+
+Navigation: a left-drag on the photo draws a box and zooms into it (it does not orbit,
+which would tilt the photo), the wheel zooms, a right-drag pans; "Whole photo" / "Nose"
+re-frame. A click outside the photo is refused with a message.
+
+Ordering: scene clicks arrive in an ``async`` callback (the event loop keeps their order)
+and are queued to one worker thread, so fast clicking never reorders landmarks.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from naseview.annotation import (
+    CLICK_ORDER,
+    VIEW_ORDER,
+    VIEW_TITLES,
+    AnnotationSession,
+    Guidance,
+    default_case_id,
+    default_work_dir,
+    describe,
+    list_in_progress,
+)
+from naseview.errors import NaseviewError
+from naseview.landmarks import LANDMARKS, VIEWS
+
+log = logging.getLogger(__name__)
+
+PLANE_CENTRE = np.array([0.0, 100_000.0, 0.0])
+"""Where the photo plane lives: 100 m above the face, so the face is never in view."""
+
+PLANE_SIZE = 200.0
+"""Longest side of the photo plane (scene units)."""
+
+CAMERA_DISTANCE = 400.0
+PLACED_RGB = (40, 220, 90)
+ACTIVE_RGB = (255, 210, 0)
+HINT_RGB = (255, 40, 200)
+OTHER_HINT_RGB = (40, 200, 255)
+VIEW_BUTTONS = {"Front": "front", "Bottom": "bottom", "Left": "left", "Right": "right"}
+_UNSET = object()
+
+
+def _view_of(label: str) -> str:
+    """View of a button label such as ``"Front 8/21"``."""
+    return VIEW_BUTTONS[label.split(" ", 1)[0]]
+
+
+# ----------------------------------------------------------------------------- geometry
+@dataclass(frozen=True)
+class PhotoPlane:
+    """A photo of ``width_px`` x ``height_px`` shown as a scene image.
+
+    The image node sits at ``centre`` rotated 180 degrees about x, so that seen from +z
+    with +y up its pixel ``[0, 0]`` is at the top left; its longest side is ``size``
+    scene units. Pixel coordinates follow SPEC §2 (``[0, 0]`` = centre of the top-left
+    pixel).
+    """
+
+    width_px: int
+    height_px: int
+    centre: np.ndarray = field(default_factory=lambda: PLANE_CENTRE.copy())
+    size: float = PLANE_SIZE
+
+    @property
+    def width_u(self) -> float:
+        return self.size * self.width_px / max(self.width_px, self.height_px)
+
+    @property
+    def height_u(self) -> float:
+        return self.size * self.height_px / max(self.width_px, self.height_px)
+
+    @property
+    def wxyz(self) -> tuple[float, float, float, float]:
+        return (0.0, 1.0, 0.0, 0.0)
+
+    def to_pixel(self, point: np.ndarray) -> np.ndarray:
+        """(3,) world point on the plane -> (2,) pixel ``[x, y]``."""
+        d = np.asarray(point, dtype=np.float64) - self.centre
+        u = (d[0] / self.width_u + 0.5) * self.width_px - 0.5
+        v = (-d[1] / self.height_u + 0.5) * self.height_px - 0.5
+        return np.array([u, v])
+
+    def to_world(self, uv: np.ndarray, lift: float = 0.0) -> np.ndarray:
+        """(N, 2) pixels -> (N, 3) world points ``lift`` units in front of the photo."""
+        uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+        x = ((uv[:, 0] + 0.5) / self.width_px - 0.5) * self.width_u
+        y = -((uv[:, 1] + 0.5) / self.height_px - 0.5) * self.height_u
+        return self.centre + np.column_stack([x, y, np.full(len(uv), lift)])
+
+    def intersect(self, origin: Any, direction: Any) -> np.ndarray | None:
+        """Pixel where a view ray meets the photo plane (``None``: parallel or behind)."""
+        o = np.asarray(origin, dtype=np.float64)
+        d = np.asarray(direction, dtype=np.float64)
+        if abs(d[2]) < 1e-12:
+            return None
+        t = (self.centre[2] - o[2]) / d[2]
+        if t <= 0:
+            return None
+        return self.to_pixel(o + t * d)
+
+    def inside(self, uv: np.ndarray) -> bool:
+        return bool(-0.5 <= uv[0] <= self.width_px - 0.5
+                    and -0.5 <= uv[1] <= self.height_px - 0.5)
+
+    def fov_for(self, aspect: float, distance: float = CAMERA_DISTANCE,
+                margin: float = 1.03) -> float:
+        """Vertical field of view (rad) that fits the photo in a view of ``aspect``
+        (width / height) from ``distance``."""
+        need = max(self.height_u, self.width_u / max(aspect, 1e-3)) * margin
+        return float(2.0 * np.arctan(0.5 * need / distance))
+
+    def marker_radius(self) -> float:
+        """Radius of a click ring (scene units): ~1 % of the photo's longest side."""
+        return 0.0105 * self.size
+
+
+def ring_mesh(r_in: float, r_out: float, n: int = 28) -> tuple[np.ndarray, np.ndarray]:
+    """A flat annulus in the z = 0 plane, normal +z: (2n, 3) vertices, (2n, 3) faces."""
+    a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    c, s = np.cos(a), np.sin(a)
+    V = np.concatenate([np.column_stack([r_in * c, r_in * s, np.zeros(n)]),
+                        np.column_stack([r_out * c, r_out * s, np.zeros(n)])])
+    i = np.arange(n)
+    j = (i + 1) % n
+    F = np.concatenate([np.column_stack([i, n + i, n + j]), np.column_stack([i, n + j, j])])
+    return V, F.astype(np.int64)
+
+
+def disc_mesh(r: float, n: int = 20) -> tuple[np.ndarray, np.ndarray]:
+    """A flat disc in the z = 0 plane, normal +z."""
+    a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    V = np.vstack([[0.0, 0.0, 0.0], np.column_stack([r * np.cos(a), r * np.sin(a),
+                                                     np.zeros(n)])])
+    i = np.arange(n)
+    F = np.column_stack([np.zeros(n, np.int64), 1 + i, 1 + (i + 1) % n])
+    return V, F
+
+
+# ----------------------------------------------------------------------------- diagrams
+DIAGRAM_DIRECTIONS: dict[str, tuple[float, float, float]] = {
+    "front": (0.0, 0.0, 1.0), "left": (1.0, 0.0, 0.12), "right": (-1.0, 0.0, 0.12),
+    "bottom": (0.0, -0.8, 0.6),
+}
+"""Direction from the nose to the diagram camera per photo (SPEC frame)."""
+
+
+class LandmarkDiagrams:
+    """Small pictures of where a landmark is: the face model rendered from the photo's
+    direction, the other landmarks of that photo as grey dots, the asked one as a red
+    dot with a ring. Rendered once per photo, drawn once per landmark, then cached.
+
+    Args:
+        model: a :class:`~naseview.facemodel.FaceModel` or a name for
+            ``load_face_model`` (``None``: ICT if installed, else the generic model).
+        size: picture size (px).
+    """
+
+    def __init__(self, model: Any = None, size: int = 200) -> None:
+        self._model_arg = model
+        self.size = size
+        self._lock = threading.Lock()
+        self._model: Any = None
+        self._failed = False
+        self._base: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]] = {}
+        self._cache: dict[tuple[str, str], np.ndarray] = {}
+
+    def _load(self) -> Any:
+        if self._model is None and not self._failed:
+            try:
+                from naseview.facemodel import FaceModel, load_face_model
+
+                m = self._model_arg
+                self._model = m if isinstance(m, FaceModel) else load_face_model(m)
+            except Exception as e:  # no model: the page works without diagrams
+                log.warning("naseview: landmark diagrams unavailable: %s", e)
+                self._failed = True
+        return self._model
+
+    def _points(self, model: Any) -> dict[str, np.ndarray]:
+        V = model.mean
+        pts = {k: V[i] for k, i in model.landmark_vertices.items()}
+        path = np.asarray(model.curve_vertices.get("bottom", []), dtype=np.int64)
+        for side in ("l", "r"):
+            a, b = model.landmark_vertices.get(f"alp_{side}"), model.landmark_vertices["prn"]
+            ia, ib = np.flatnonzero(path == a), np.flatnonzero(path == b)
+            if ia.size and ib.size:
+                seg = path[min(ia[0], ib[0]):max(ia[0], ib[0]) + 1]
+                pts[f"add_{side}"] = V[seg[len(seg) // 2]]
+            elif f"alp_{side}" in pts:
+                pts[f"add_{side}"] = 0.5 * (pts[f"alp_{side}"] + pts["prn"])
+        return pts
+
+    def _render(self, view: str) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
+        if view in self._base:
+            return self._base[view]
+        model = self._load()
+        if model is None:
+            return None
+        from naseview.camera import look_at
+        from naseview.render import render_mesh
+        from naseview.report import cap_holes
+
+        pts = self._points(model)
+        P = np.array([pts[i] for i in CLICK_ORDER[view] if i in pts])
+        centre = 0.5 * (P.min(axis=0) + P.max(axis=0))
+        d = np.asarray(DIAGRAM_DIRECTIONS[view], dtype=np.float64)
+        d /= np.linalg.norm(d)
+        field_mm = 1.35 * float(np.ptp(P, axis=0).max())
+        dist = 800.0
+        cam = look_at(centre + dist * d, centre, (0.0, 1.0, 0.0), self.size * dist / field_mm,
+                      self.size, self.size)
+        V, F = cap_holes(model.mean, model.faces)
+        C = np.tile(np.array([150, 178, 222], np.uint8), (len(V), 1))
+        nostrils = np.asarray(model.nostril_vertices, dtype=np.int64)
+        C[nostrils] = (40, 40, 50)
+        img = render_mesh(V, F, cam, vertex_colors=C, supersample=2,
+                          background=(245, 245, 245)).image
+        uv = {i: cam.project(pts[i])[0] for i in CLICK_ORDER[view] if i in pts}
+        self._base[view] = (img, uv)
+        return self._base[view]
+
+    def get(self, view: str, landmark: str) -> np.ndarray | None:
+        """(size, size, 3) uint8 RGB picture, or ``None`` when no face model loads."""
+        import cv2
+
+        with self._lock:
+            key = (view, landmark)
+            if key in self._cache:
+                return self._cache[key]
+            base = self._render(view)
+            if base is None:
+                return None
+            img, uv = base
+            out = img.copy()
+            for i, p in uv.items():
+                if i != landmark:
+                    cv2.circle(out, (int(round(p[0])), int(round(p[1]))), 2, (120, 120, 120),
+                               -1, cv2.LINE_AA)
+            if landmark in uv:
+                q = (int(round(uv[landmark][0])), int(round(uv[landmark][1])))
+                cv2.circle(out, q, 11, (255, 255, 255), 3, cv2.LINE_AA)
+                cv2.circle(out, q, 11, (30, 30, 220), 1, cv2.LINE_AA)
+                cv2.circle(out, q, 4, (30, 30, 220), -1, cv2.LINE_AA)
+            label = LANDMARKS[landmark].paper
+            cv2.putText(out, label, (6, self.size - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.6,
+                        (30, 30, 220), 2, cv2.LINE_AA)
+            rgb = np.ascontiguousarray(out[:, :, ::-1])
+            self._cache[key] = rgb
+            return rgb
+
+    def warm(self) -> None:
+        """Render every photo direction (call from a background thread)."""
+        for v in VIEW_ORDER:
+            with self._lock:
+                self._render(v)
+
+
+# ----------------------------------------------------------------------------- the page
+class AnnotatePage:
+    """Intake and guided annotation of a new patient, in its own docked panel.
+
+    Args:
+        server: the ``viser.ViserServer`` (shared by the app).
+        app: the :class:`~naseview.app.serve.NaseviewApp` that opens the result, or
+            ``None`` (then "Reconstruct" only writes the case directory).
+        work_dir: where patients are kept (default :func:`default_work_dir`).
+        diagram_model: face model for the landmark diagrams (``None``: default model).
+    """
+
+    def __init__(self, server: Any, app: Any = None, work_dir: str | Path | None = None,
+                 diagram_model: Any = None) -> None:
+        self.server = server
+        self.app = app
+        self.work_dir = Path(work_dir) if work_dir else default_work_dir()
+        self.diagrams = LandmarkDiagrams(diagram_model)
+        self.session: AnnotationSession | None = None
+        self.view = VIEW_ORDER[0]
+        self.target: tuple[str, str] | None = None
+        self.override: str | None = None
+        self.active = False
+        self.plane: PhotoPlane | None = None
+        self.guidance: Guidance | None = None
+        self.last_click_px: np.ndarray | None = None
+        self.events: list[tuple[float, str]] = []
+        self._lock = threading.RLock()
+        self._queue: queue.Queue[Callable[[], None] | None] = queue.Queue()
+        self._worker = threading.Thread(target=self._run, name="naseview-annotate",
+                                        daemon=True)
+        self._worker.start()
+        self._hint_cond = threading.Condition()
+        self._hint_request = -1
+        self._hint_thread = threading.Thread(target=self._hint_run, name="naseview-hints",
+                                             daemon=True)
+        self._hint_thread.start()
+        self._handles: dict[str, Any] = {}
+        self._drag: dict[int, tuple[str, np.ndarray]] = {}
+        self._click_cb: Any = None
+        self._rect_cb: Any = None
+        self._drag_time = 0.0
+        self._sent: dict[tuple[int, str], Any] = {}
+        self._intake_open = False
+        self._last_upload = 0.0
+        self._build_gui()
+        threading.Thread(target=self.diagrams.warm, name="naseview-diagrams",
+                         daemon=True).start()
+
+    # ------------------------------------------------------------------ GUI
+    def _build_gui(self) -> None:
+        import viser
+
+        gui = self.server.gui
+        self.panel = gui.add_panel(visible=False)
+        self.panel.dock_left()
+        self.panel.set_width(370)
+        with self.panel.add_tab("New patient", icon=viser.Icon.USER_PLUS):
+            self.status = gui.add_markdown("", order=0.1)
+            self.error = gui.add_markdown("", visible=False, order=0.2)
+            # marking comes first once a photo is there; intake below, reconstruct last
+            # intake on top, but it shrinks to one line once the four photos are in, so
+            # that the landmark section sits right under it without scrolling
+            with gui.add_folder("Patient and photos", order=1.0) as self.f_intake:
+                self.resume_dd = gui.add_dropdown("Unfinished", ("—",), visible=False,
+                                                  hint="Annotations saved automatically")
+                self.resume_btn = gui.add_button("Resume this patient", visible=False,
+                                                 icon=viser.Icon.PLAYER_PLAY)
+                self.alal = gui.add_number("al_l-al_r (mm)", 0.0, min=0.0, max=80.0,
+                                           step=0.1, hint="Alar width measured with a "
+                                           "calliper: sets the scale of the 3D result")
+                self.intake_md = gui.add_markdown("", visible=False)
+                self.change_btn = gui.add_button("Change photos, id or distances",
+                                                 visible=False, icon=viser.Icon.PENCIL)
+                self.case_id = gui.add_text("Case id", default_case_id(),
+                                            hint="Anonymised id: no patient names")
+                self.other = gui.add_text("Other distances", "",
+                                          hint="Optional calliper distances, e.g. "
+                                               "n-prn=45.2, mf_l-mf_r=18")
+                self.uploads = {}
+                # upload buttons ignore `visible` (viser 1.1.1): hide their folder instead
+                with gui.add_folder(None) as self.f_uploads:
+                    for label, view in VIEW_BUTTONS.items():
+                        self.uploads[view] = gui.add_upload_button(
+                            f"{label} photo", icon=viser.Icon.UPLOAD,
+                            mime_type="image/jpeg,image/png",
+                            hint=f"{VIEW_TITLES[view]}: JPEG or PNG")
+                self.photo_info = gui.add_markdown("")
+            with gui.add_folder("Landmarks", order=2.0, visible=False) as self.f_marks:
+                self.view_group = gui.add_button_group("Photo", tuple(VIEW_BUTTONS))
+                self.target_md = gui.add_markdown("")
+                self.diagram = gui.add_image(np.full((8, 8, 3), 245, np.uint8),
+                                             format="jpeg", jpeg_quality=88, visible=False)
+                self.skip_btn = gui.add_button("Not visible — skip",
+                                               icon=viser.Icon.PLAYER_SKIP_FORWARD,
+                                               hint="This landmark cannot be seen here")
+                self.undo_btn = gui.add_button("Undo", icon=viser.Icon.ARROW_BACK_UP,
+                                               disabled=True)
+                self.progress = gui.add_progress_bar(0.0, color="green")
+                self.hint_md = gui.add_markdown("")
+                self.zoom = gui.add_button_group("Zoom", ("Whole photo", "Nose"))
+                self.pick = gui.add_dropdown("Landmark", ("—",),
+                                             hint="Choose a landmark to click (again)")
+                self.labels_cb = gui.add_checkbox("Labels on clicks", True)
+            with gui.add_folder("Reconstruct", order=3.0) as self.f_rec:
+                self.problems_md = gui.add_markdown("")
+                self.rec_btn = gui.add_button("Reconstruct", icon=viser.Icon.CUBE,
+                                              color="green", disabled=True)
+                self.rec_md = gui.add_markdown("")
+            self.close_btn = gui.add_button("Close (back to the 3D view)",
+                                            icon=viser.Icon.X, order=4.0)
+        self._wire()
+
+    def _wire(self) -> None:
+        def safe(fn: Callable[[Any], None]) -> Callable[[Any], None]:
+            def run(event: Any) -> None:
+                try:
+                    fn(event)
+                except NaseviewError as e:
+                    self.show_error(str(e), getattr(event, "client", None))
+                except Exception as e:  # keep the server up, show the error
+                    log.exception("naseview: annotation action failed")
+                    self.show_error(f"{type(e).__name__}: {e}",
+                                    getattr(event, "client", None))
+            return run
+
+        def user(fn: Callable[[Any], None]) -> Callable[[Any], None]:
+            """Only events from a browser: values the server assigns (``client`` None)
+            also fire ``on_update`` and must not act again."""
+            inner = safe(fn)
+
+            def run(event: Any) -> None:
+                if getattr(event, "client", None) is not None:
+                    inner(event)
+            return run
+
+        for view, btn in self.uploads.items():
+            btn.on_upload(safe(lambda e, v=view: self._on_upload(v, e)))
+        self.alal.on_update(user(lambda e: self._on_scale()))
+        self.other.on_update(user(lambda e: self._on_scale()))
+        self.case_id.on_update(user(lambda e: self._on_case_id()))
+        self.view_group.on_click(user(lambda e: self._on_view_button(str(e.target.value))))
+        self.zoom.on_click(user(lambda e: self.submit(
+            self.fit_camera if e.target.value == "Whole photo" else self.zoom_nose)))
+        self.skip_btn.on_click(safe(lambda e: self.submit(self._skip)))
+        self.undo_btn.on_click(safe(lambda e: self.submit(self._undo)))
+        self.pick.on_update(user(lambda e: self._on_pick(str(e.target.value))))
+        self.labels_cb.on_update(user(lambda e: self.submit(self._redraw)))
+        self.rec_btn.on_click(safe(lambda e: self.reconstruct()))
+        self.close_btn.on_click(safe(lambda e: self.hide()))
+        self.resume_btn.on_click(safe(lambda e: self._on_resume()))
+        self.change_btn.on_click(safe(lambda e: self._toggle_intake()))
+
+    # ------------------------------------------------------------------ worker
+    def submit(self, fn: Callable[[], None]) -> None:
+        """Run ``fn`` on the page's worker thread, in submission order."""
+        self._queue.put(fn)
+
+    def wait_idle(self, timeout: float = 10.0) -> bool:
+        """Block until every submitted action ran (tests)."""
+        done = threading.Event()
+        self._queue.put(done.set)
+        return done.wait(timeout)
+
+    def _run(self) -> None:
+        while True:
+            fn = self._queue.get()
+            if fn is None:
+                return
+            try:
+                fn()
+            except NaseviewError as e:
+                self.show_error(str(e))
+            except Exception as e:
+                log.exception("naseview: annotation step failed")
+                self.show_error(f"{type(e).__name__}: {e}")
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self, case_id: str | None = None) -> AnnotationSession:
+        """Show the page with a new patient (``in-progress/<id>`` under the work dir)."""
+        cid = case_id or default_case_id()
+        folder = self.work_dir / "in-progress" / cid
+        k = 2
+        while (folder / "annotation.json").exists():
+            folder = self.work_dir / "in-progress" / f"{cid}-{k}"
+            k += 1
+        session = AnnotationSession.create(folder, folder.name)
+        self._attach(session)
+        return session
+
+    def resume(self, folder: str | Path) -> AnnotationSession:
+        """Show the page with the annotation autosaved in ``folder``."""
+        session = AnnotationSession.open(folder)
+        self._attach(session)
+        return session
+
+    def show_start(self) -> None:
+        """Show the page: the patient being annotated, else the newest unfinished one
+        (the list offers the others), else a new patient. A patient whose case was
+        already reconstructed is not reopened: "New patient" then starts a new one."""
+        if self.session is not None and self.session.case_dir is None:
+            self._attach(self.session)
+            return
+        found = [(p, m) for p, m in list_in_progress(self.work_dir / "in-progress")
+                 if not m.get("case_dir")]
+        if found:
+            self.resume(found[0][0])
+        else:
+            self.start()
+
+    def _attach(self, session: AnnotationSession) -> None:
+        with self._lock:
+            self.session = session
+            self.override = None
+            self.guidance = None
+            self.case_id.value = session.case_id
+            al = session.scale_mm.get(("al_l", "al_r"))
+            self.alal.value = float(al) if al else 0.0
+            self.other.value = ", ".join(f"{a}-{b}={d:g}" for (a, b), d in
+                                         session.scale_mm.items() if (a, b) != ("al_l", "al_r"))
+            self.view = session.active_view
+        self._refresh_resume_list()
+        self.show()
+        self.submit(lambda: self.set_view(self.view, fit=True))
+        self._request_hints()
+
+    def show(self) -> None:
+        """Make the page the active view: its panel, the photo, the click handler."""
+        with self._lock:
+            if self.active:
+                return
+            self.active = True
+            self.panel.visible = True
+            self.panel.expand()
+            try:
+                self.server.gui.main_panel.minimize()
+            except Exception:  # older viser without panel placement
+                pass
+            scene = self.server.scene
+
+            @scene.on_click()
+            async def _click(event: Any) -> None:
+                self._on_scene_click(event)
+
+            # a left-drag on the photo draws a box to zoom into instead of orbiting the
+            # camera (which would tilt the photo); right-drag pans, the wheel zooms
+            @scene.on_rect_select()
+            def _rect(event: Any) -> None:
+                try:
+                    self.zoom_rect(event.client, event.screen_min, event.screen_max)
+                except Exception:
+                    log.exception("naseview: zoom failed")
+
+            self._click_cb = _click
+            self._rect_cb = _rect
+            for h in self._handles.values():
+                h.visible = True
+
+    def hide(self) -> None:
+        """Back to the 3D app: hide the photo, stop taking clicks, restore its panel."""
+        with self._lock:
+            if not self.active:
+                return
+            self.active = False
+            if self._click_cb is not None:
+                self.server.scene.remove_click_callback(self._click_cb)
+                self._click_cb = None
+            if self._rect_cb is not None:
+                self.server.scene.remove_rect_select_callback(self._rect_cb)
+                self._rect_cb = None
+            for h in self._handles.values():
+                h.visible = False
+            self.panel.visible = False
+            try:
+                self.server.gui.main_panel.expand()
+            except Exception:
+                pass
+        # Bring the cameras back to the face first: from 100 m away, viser's separate
+        # look_at / position updates of the app's camera placement end up misaligned.
+        eye, target = (0.0, -40.0, 450.0), (0.0, -40.0, 0.0)
+        cam0 = self.server.initial_camera
+        cam0.position, cam0.look_at, cam0.up = eye, target, (0.0, 1.0, 0.0)
+        cam0.near, cam0.far = 1.0, 5000.0
+        for client in self.server.get_clients().values():
+            with client.atomic():
+                client.camera.position = eye
+                client.camera.look_at = target
+                client.camera.up_direction = (0.0, 1.0, 0.0)
+                client.camera.near = 1.0
+                client.camera.far = 5000.0
+        app = self.app
+        if app is not None and getattr(app, "controller", None) is not None:
+            try:
+                app._set_camera(app.controller.baseline)
+            except Exception:
+                log.debug("naseview: could not reset the app camera", exc_info=True)
+
+    def close(self) -> None:
+        self._queue.put(None)
+        with self._hint_cond:
+            self._hint_request = -2
+            self._hint_cond.notify_all()
+
+    # ------------------------------------------------------------------ intake
+    def _toggle_intake(self) -> None:
+        self._intake_open = not self._intake_open
+        self.submit(self._update_panel)
+
+    def _on_view_button(self, label: str) -> None:
+        view = _view_of(label)
+        self.submit(lambda: self.set_view(view, fit=True))
+
+    def _on_upload(self, view: str, event: Any) -> None:
+        f = event.target.value
+        self.upload(view, f.content, f.name)
+
+    def upload(self, view: str, data: bytes, name: str = "") -> None:
+        """Take a photo for ``view`` (raises :class:`NaseviewError` with one line)."""
+        s = self._need_session()
+        had = len(s.clicks[view])
+        info = s.add_photo(view, data, name)
+        self._last_upload = time.monotonic()
+        timer = threading.Timer(2.2, lambda: self.submit(self._update_panel))
+        timer.daemon = True
+        timer.start()
+        note = (f" Downscaled from {info.original_width}x{info.original_height}."
+                if info.downscaled else "")
+        if had:
+            note += f" The {had} clicks on the previous {view} photo were removed."
+        self.show_error(None)
+        self.notify(f"{VIEW_TITLES[view]} loaded", f"{info.width}x{info.height} px.{note}")
+        if view == self.view or self.plane is None or not s.photos.get(self.view):
+            self.submit(lambda: self.set_view(view, fit=True))
+        else:
+            self.submit(self._update_panel)
+
+    def _on_scale(self) -> None:
+        s = self._need_session()
+        v = float(self.alal.value or 0.0)
+        s.set_scale("al_l", "al_r", v if v > 0 else None)
+        s.set_scale_text(self.other.value)
+        self.show_error(None)
+        self.submit(self._update_panel)
+
+    def _on_case_id(self) -> None:
+        s = self._need_session()
+        s.set_case_id(self.case_id.value)
+        self.submit(self._update_panel)
+
+    def _on_resume(self) -> None:
+        name = self.resume_dd.value
+        for p, m in list_in_progress(self.work_dir / "in-progress"):
+            if self._resume_label(p, m) == name:
+                self.hide()
+                self.resume(p)
+                return
+        if name.startswith("New patient"):
+            self.hide()
+            self.start()
+
+    @staticmethod
+    def _resume_label(p: Path, m: dict[str, Any]) -> str:
+        n = sum(len(c) for c in m.get("clicks", {}).values())
+        return f"{m.get('id', p.name)} · {n} clicks · {str(m.get('updated', ''))[:16]}"
+
+    def _refresh_resume_list(self) -> None:
+        items = list_in_progress(self.work_dir / "in-progress")
+        labels = [self._resume_label(p, m) for p, m in items
+                  if self.session is None or p != self.session.folder]
+        if labels:
+            self.resume_dd.options = tuple(labels) + ("New patient (empty)",)
+            self.resume_dd.visible = True
+            self.resume_btn.visible = True
+        else:
+            self.resume_dd.visible = False
+            self.resume_btn.visible = False
+
+    def _need_session(self) -> AnnotationSession:
+        if self.session is None:
+            self.start()
+        assert self.session is not None
+        return self.session
+
+    # ------------------------------------------------------------------ photo view
+    def set_view(self, view: str, fit: bool = False) -> None:
+        """Show the photo of ``view`` (worker thread)."""
+        s = self._need_session()
+        if view not in VIEWS:
+            raise NaseviewError(f"unknown view {view!r}")
+        changed = view != self.view or self.plane is None
+        self.view = view
+        s.set_active_view(view)
+        self.override = None
+        scene = self.server.scene
+        if view in s.photos:
+            info = s.photos[view]
+            plane = PhotoPlane(info.width, info.height)
+            img = s.image(view)[:, :, ::-1]
+            self._handles["photo"] = scene.add_image(
+                "/annotate/photo", img, plane.width_u, plane.height_u, format="jpeg",
+                jpeg_quality=92, wxyz=plane.wxyz, position=tuple(plane.centre),
+                cast_shadow=False, receive_shadow=False, visible=self.active)
+            self.plane = plane
+        else:
+            self.plane = None
+            h = self._handles.pop("photo", None)
+            if h is not None:
+                h.remove()
+        self._make_markers()
+        self._redraw()
+        if fit or changed:
+            self.fit_camera()
+
+    def fit_camera(self, clients: Any = None) -> None:
+        """Point every browser's camera straight at the photo, fitted to its window."""
+        plane = self.plane or PhotoPlane(4, 3)
+        eye = plane.centre + np.array([0.0, 0.0, CAMERA_DISTANCE])
+        cam0 = self.server.initial_camera
+        cam0.position = tuple(eye)
+        cam0.look_at = tuple(plane.centre)
+        cam0.up = (0.0, 1.0, 0.0)
+        cam0.fov = plane.fov_for(16 / 10)
+        cam0.near = 1.0
+        cam0.far = 4.0 * CAMERA_DISTANCE
+        for client in (clients or self.server.get_clients().values()):
+            c = client.camera
+            aspect = (c.image_width / c.image_height) if c.image_height else 16 / 10
+            with client.atomic():
+                c.fov = plane.fov_for(aspect)
+                c.near = 1.0
+                c.far = 4.0 * CAMERA_DISTANCE
+                c.up_direction = (0.0, 1.0, 0.0)
+                c.position = tuple(eye)
+                c.look_at = tuple(plane.centre)
+
+    def zoom_nose(self) -> None:
+        """Frame the clicks and hints of this photo (the nose) with a margin; before
+        three points exist, the central 60 % of the photo."""
+        plane = self.plane
+        s = self.session
+        if plane is None or s is None:
+            return
+        pts = list(s.clicks[self.view].values())
+        if self.guidance is not None:
+            pts += list(self.guidance.hints(self.view).values())
+        if len(pts) >= 3:
+            P = np.array(pts)
+            lo, hi = P.min(axis=0), P.max(axis=0)
+            pad = 0.18 * max(hi - lo) + 0.03 * max(plane.width_px, plane.height_px)
+            lo, hi = lo - pad, hi + pad
+        else:
+            c = np.array([plane.width_px, plane.height_px]) / 2.0
+            lo, hi = c * 0.4, c * 1.6
+        self._frame_pixels(lo, hi)
+
+    def zoom_rect(self, client: Any, screen_min: Any, screen_max: Any) -> None:
+        """Zoom ``client``'s view onto a rectangle drawn on the photo (screen 0..1)."""
+        from viser import transforms as vtf
+
+        plane = self.plane
+        if plane is None or time.monotonic() - self._drag_time < 0.6:
+            return                      # the pointer was dragging a click, not a box
+        cam = client.camera
+        aspect = cam.image_width / cam.image_height if cam.image_height else 16 / 10
+        R = vtf.SO3(np.asarray(cam.wxyz)).as_matrix()          # camera -> world (OpenCV)
+        th = np.tan(cam.fov / 2.0)
+        corners = []
+        for u, v in ((screen_min[0], screen_min[1]), (screen_max[0], screen_max[1])):
+            d = R @ np.array([(2 * u - 1) * th * aspect, (2 * v - 1) * th, 1.0])
+            uv = plane.intersect(cam.position, d)
+            if uv is None:
+                return
+            corners.append(uv)
+        lo, hi = np.minimum(*corners), np.maximum(*corners)
+        if max(hi - lo) < 0.02 * max(plane.width_px, plane.height_px):
+            return                                               # a slip, not a box
+        self._frame_pixels(lo, hi, [client])
+
+    def _frame_pixels(self, lo: np.ndarray, hi: np.ndarray, clients: Any = None) -> None:
+        """Look straight at the pixel box [lo, hi] of the photo, filling the view."""
+        plane = self.plane
+        if plane is None:
+            return
+        target = plane.to_world(0.5 * (lo + hi))[0]
+        scale = plane.size / max(plane.width_px, plane.height_px)
+        eye = target + np.array([0.0, 0.0, CAMERA_DISTANCE])
+        for client in (clients or self.server.get_clients().values()):
+            c = client.camera
+            aspect = c.image_width / c.image_height if c.image_height else 16 / 10
+            need = max((hi - lo)[1], (hi - lo)[0] / aspect) * scale * 1.05
+            with client.atomic():
+                c.fov = float(2.0 * np.arctan(0.5 * need / CAMERA_DISTANCE))
+                c.up_direction = (0.0, 1.0, 0.0)
+                c.position = tuple(eye)
+                c.look_at = tuple(target)
+
+    # ------------------------------------------------------------------ markers
+    def _make_markers(self) -> None:
+        """(Re)create the ring meshes for the photo shown (one instance per landmark)."""
+        for key in ("clicks", "grab", "hint", "hints"):
+            h = self._handles.pop(key, None)
+            if h is not None:
+                h.remove()
+        for key in [k for k in self._handles if k.startswith("label:")]:
+            self._handles.pop(key).remove()
+        if self.plane is None:
+            return
+        scene = self.server.scene
+        r = self.plane.marker_radius()
+        order = CLICK_ORDER[self.view]
+        n = len(order)
+        far = np.tile(self.plane.centre + np.array([0.0, 0.0, -50.0]), (n, 1))
+        unit = np.tile([1.0, 0.0, 0.0, 0.0], (n, 1))
+        V, F = ring_mesh(0.55 * r, r)
+        self._handles["clicks"] = scene.add_batched_meshes_simple(
+            "/annotate/clicks", V, F, batched_wxyzs=unit, batched_positions=far,
+            batched_colors=np.tile(np.array(PLACED_RGB, np.uint8), (n, 1)),
+            material="toon3", side="double", cast_shadow=False, receive_shadow=False,
+            visible=self.active)
+        # a faint disc under each ring is what the pointer grabs to drag a click
+        Vg, Fg = disc_mesh(r)
+        self._handles["grab"] = h = scene.add_batched_meshes_simple(
+            "/annotate/grab", Vg, Fg, batched_wxyzs=unit, batched_positions=far,
+            batched_colors=np.tile(np.array(PLACED_RGB, np.uint8), (n, 1)),
+            opacity=0.07, material="toon3", side="double", cast_shadow=False,
+            receive_shadow=False, visible=self.active)
+        h.on_drag(self._on_drag)
+        Vh, Fh = ring_mesh(1.25 * r, 1.6 * r)
+        self._handles["hint"] = scene.add_mesh_simple(
+            "/annotate/hint", Vh, Fh, color=HINT_RGB, material="toon3", side="double",
+            cast_shadow=False, receive_shadow=False, visible=False,
+            position=tuple(far[0]))
+        Vd, Fd = disc_mesh(0.3 * r)
+        self._handles["hints"] = scene.add_batched_meshes_simple(
+            "/annotate/hints", Vd, Fd, batched_wxyzs=unit, batched_positions=far,
+            batched_colors=np.tile(np.array(OTHER_HINT_RGB, np.uint8), (n, 1)),
+            material="toon3", side="double", cast_shadow=False, receive_shadow=False,
+            visible=self.active)
+
+    def _redraw(self) -> None:
+        """Positions of rings, hints and labels for the current state (worker thread)."""
+        s = self.session
+        plane = self.plane
+        if s is None:
+            return
+        self.target = self._current_target()
+        if plane is not None and "clicks" in self._handles:
+            order = CLICK_ORDER[self.view]
+            far = plane.centre + np.array([0.0, 0.0, -50.0])
+            clicks = s.clicks[self.view]
+            pos = np.array([plane.to_world(clicks[i], 0.35)[0] if i in clicks else far
+                            for i in order])
+            grab = np.array([plane.to_world(clicks[i], 0.3)[0] if i in clicks else far
+                             for i in order])
+            tgt = self.target[1] if self.target and self.target[0] == self.view else None
+            cols = np.array([ACTIVE_RGB if i == tgt else PLACED_RGB for i in order],
+                            np.uint8)
+            hints = self.guidance.hints(self.view, set(clicks)) if self.guidance else {}
+            hpos = np.array([plane.to_world(hints[i], 0.2)[0]
+                             if i in hints and i != tgt else far for i in order])
+            with self.server.atomic():
+                self._handles["clicks"].batched_positions = pos
+                self._handles["clicks"].batched_colors = cols
+                self._handles["grab"].batched_positions = grab
+                self._handles["hints"].batched_positions = hpos
+                hint = self._handles["hint"]
+                if tgt is not None and tgt in hints:
+                    hint.position = tuple(plane.to_world(hints[tgt], 0.25)[0])
+                    hint.visible = self.active
+                else:
+                    hint.visible = False
+                self._update_labels(clicks, tgt, hints)
+        self._update_panel()
+
+    def _update_labels(self, clicks: dict[str, np.ndarray], target: str | None,
+                       hints: dict[str, np.ndarray]) -> None:
+        plane = self.plane
+        assert plane is not None
+        scene = self.server.scene
+        want: dict[str, tuple[str, np.ndarray]] = {}
+        if self.labels_cb.value:
+            for i, xy in clicks.items():
+                want[f"label:{i}"] = (LANDMARKS[i].paper, xy)
+        if target is not None and target in hints:
+            want[f"label:{target}"] = (LANDMARKS[target].paper + " ?", hints[target])
+        r = plane.marker_radius()
+        for key in [k for k in self._handles if k.startswith("label:") and k not in want]:
+            self._handles.pop(key).remove()
+        for key, (text, xy) in want.items():
+            p = plane.to_world(xy, 0.4)[0] + np.array([1.2 * r, 1.2 * r, 0.0])
+            h = self._handles.get(key)
+            if h is None:
+                self._handles[key] = scene.add_label(
+                    f"/annotate/labels/{key[6:]}", text, position=tuple(p),
+                    font_screen_scale=1.15, anchor="bottom-left", visible=self.active)
+            else:
+                h.text = text
+                h.position = tuple(p)
+
+    def _current_target(self) -> tuple[str, str] | None:
+        s = self.session
+        if s is None:
+            return None
+        if self.override is not None and self.override in CLICK_ORDER[self.view]:
+            return self.view, self.override
+        self.override = None
+        if self.view not in s.photos:
+            return None
+        return s.next_target(self.view)
+
+    def _set(self, handle: Any, attr: str, value: Any) -> None:
+        """Assign a GUI property only when it changed (each assignment is a message and
+        a re-render in every browser)."""
+        key = (id(handle), attr)
+        if self._sent.get(key, _UNSET) == value:
+            return
+        self._sent[key] = value
+        setattr(handle, attr, value)
+
+    def _update_panel(self) -> None:
+        s = self.session
+        if s is None:
+            return
+        done, total = s.progress()
+        S = self._set
+        S(self.progress, "value", round(100.0 * done / max(total, 1), 1))
+        view_done, view_total = s.progress(self.view)
+        t = self.target
+        if not s.photos:
+            S(self.status, "content", "**New patient** — upload the four photos (front, "
+                                      "bottom, left and right profile), then mark the "
+                                      "landmarks.")
+        else:
+            S(self.status, "content", f"**{s.case_id}** · {VIEW_TITLES[self.view]} · "
+                                      f"{view_done}/{view_total} here, {done}/{total} overall")
+        names = {v: k for k, v in VIEW_BUTTONS.items()}
+        # keep the upload buttons a moment after the last upload: hiding them while the
+        # browser still shows its upload notification leaves that notification spinning
+        recent = time.monotonic() - self._last_upload < 2.0
+        full = len(s.photos) < len(VIEWS) or self._intake_open or recent
+        for h in (self.case_id, self.other, self.photo_info, self.f_uploads):
+            S(h, "visible", full)
+        S(self.change_btn, "visible", len(s.photos) == len(VIEWS))
+        S(self.change_btn, "label", "Done" if self._intake_open
+          else "Change photos, id or distances")
+        S(self.intake_md, "visible", not full)
+        S(self.intake_md, "content", f"Four photos loaded · case **{s.case_id}**")
+        for view, btn in self.uploads.items():
+            S(btn, "label", f"{names[view]} photo ✓" if view in s.photos
+              else f"{names[view]} photo")
+            S(btn, "color", "green" if view in s.photos else None)
+        S(self.photo_info, "content", "  \n".join(
+            f"{v}: downscaled from {p.original_width}×{p.original_height} to "
+            f"{p.width}×{p.height} px" for v, p in s.photos.items() if p.downscaled)
+          or ("JPEG or PNG; EXIF removed on upload." if len(s.photos) < 4 else ""))
+        if t is None:
+            if self.view not in s.photos:
+                S(self.target_md, "content", f"Upload the **{self.view}** photo to mark it.")
+            else:
+                S(self.target_md, "content", "All landmarks are done. Check them, then "
+                                             "**Reconstruct**.")
+            S(self.diagram, "visible", False)
+        else:
+            v, lid = t
+            where = "" if v == self.view else f" (in the {v} photo)"
+            S(self.target_md, "content", f"### Click **{LANDMARKS[lid].paper}**{where}\n"
+                                         f"{describe(lid, v)}")
+            img = self.diagrams.get(v, lid)
+            if img is not None:
+                if self._sent.get((id(self.diagram), "key")) != t:
+                    self._sent[(id(self.diagram), "key")] = t
+                    self.diagram.image = img
+                S(self.diagram, "visible", True)
+            else:
+                S(self.diagram, "visible", False)
+        marks = {"placed": "✓", "skipped": "–", "todo": "·"}
+        opts = tuple(f"{marks[s.status(self.view, i)]} {i}" for i in CLICK_ORDER[self.view])
+        S(self.pick, "options", opts)
+        if t is not None and t[0] == self.view:
+            S(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])])
+        S(self.undo_btn, "disabled", not s.can_undo)
+        S(self.skip_btn, "disabled", t is None)
+        g = self.guidance
+        lines = [g.message] if g is not None and g.message else []
+        if g is not None and g.suspect:
+            lines += [f"⚠ **{i}** in the {v} photo is {r:.0f} px from where the other "
+                      "photos put it: check that click" for v, i, r in g.suspect[:3]]
+        S(self.hint_md, "content", "  \n".join(lines))
+        probs = s.problems()
+        S(self.rec_btn, "disabled", bool(probs))
+        S(self.problems_md, "content", "Ready." if not probs else
+          "To do:  \n" + "  \n".join(f"- {p}" for p in probs[:6]))
+        opts = tuple(f"{names[v]} {'✓' if s.progress(v)[0] == s.progress(v)[1] else f'{s.progress(v)[0]}/{s.progress(v)[1]}'}"  # noqa: E501
+                     if v in s.photos else names[v] for v in VIEW_BUTTONS.values())
+        S(self.view_group, "options", opts)
+        S(self.f_marks, "visible", self.view in s.photos)
+
+    # ------------------------------------------------------------------ clicks
+    def _on_scene_click(self, event: Any) -> None:
+        """Event loop: turn the ray into pixels and queue the placement (keeps order)."""
+        plane = self.plane
+        if not self.active:
+            return
+        if plane is None:
+            self.show_error("Upload the photo first, then click on it.", event.client)
+            return
+        uv = plane.intersect(event.ray_origin, event.ray_direction)
+        view = self.view
+        self.submit(lambda: self._place_click(view, uv, event.client))
+
+    def _place_click(self, view: str, uv: np.ndarray | None, client: Any = None) -> None:
+        s = self.session
+        if s is None or view != self.view or self.plane is None:
+            return
+        if uv is None or not self.plane.inside(uv):
+            self.show_error("That click is outside the photo; click on the photo (the "
+                            "landmark was not placed).", client)
+            return
+        t = self._current_target()
+        if t is None:
+            self.notify("All done here", "Every landmark of this photo is placed; drag a "
+                        "ring to correct it or choose one under Landmark.", client)
+            return
+        v, lid = t
+        if v != self.view:
+            return
+        s.place(v, lid, uv)
+        self.last_click_px = uv
+        self.events.append((time.monotonic(), f"place {v} {lid}"))
+        self.override = None
+        self.show_error(None)
+        self._after_change()
+
+    def _skip(self) -> None:
+        s = self.session
+        t = self._current_target()
+        if s is None or t is None:
+            return
+        s.skip(*t)
+        self.events.append((time.monotonic(), f"skip {t[0]} {t[1]}"))
+        self.override = None
+        self._after_change()
+
+    def _undo(self) -> None:
+        s = self.session
+        if s is None:
+            return
+        r = s.undo()
+        if r is None:
+            return
+        self.override = r[1] if s.status(*r) != "placed" else None
+        if r[0] != self.view:
+            self.set_view(r[0], fit=True)
+            self.override = r[1] if s.status(*r) != "placed" else None
+        self._after_change()
+
+    def _on_pick(self, value: str) -> None:
+        """The user chose a landmark in the list: it becomes the target; its old click
+        stays until the new one is placed (undo restores it)."""
+        lid = value.split(" ", 1)[-1]
+        self._sent.pop((id(self.pick), "value"), None)  # the browser changed it
+
+        def pick() -> None:
+            t = self.target
+            if lid in CLICK_ORDER[self.view] and (t is None or t[1] != lid):
+                self.override = lid
+                self._redraw()
+        self.submit(pick)
+
+    def _after_change(self) -> None:
+        s = self.session
+        assert s is not None
+        self.show_error(None)
+        nxt = s.next_target(self.view)
+        if nxt is not None and nxt[0] != self.view and self.override is None:
+            done_view = self.view
+            self.set_view(nxt[0], fit=True)
+            self.notify(f"{done_view.capitalize()} photo done",
+                        f"Now the {VIEW_TITLES[nxt[0]].lower()}.")
+        else:
+            self._redraw()
+        self._request_hints()
+
+    async def _on_drag(self, event: Any) -> None:
+        """Drag a placed ring: follow the pointer, commit one move at the end."""
+        plane = self.plane
+        idx = event.instance_index
+        order = CLICK_ORDER[self.view]
+        s = self.session
+        if plane is None or s is None or idx is None or not 0 <= idx < len(order):
+            return
+        lid = order[idx]
+        self._drag_time = time.monotonic()
+        if lid not in s.clicks[self.view]:
+            return
+        key = int(event.client_id)
+        end = np.asarray(event.end_position, dtype=np.float64)
+        if event.phase == "start":
+            centre = plane.to_world(s.clicks[self.view][lid], 0.3)[0]
+            self._drag[key] = (lid, centre - np.asarray(event.start_position, dtype=float))
+            return
+        d = self._drag.get(key)
+        if d is None or d[0] != lid:
+            return
+        uv = plane.to_pixel(end + d[1])
+        uv = np.clip(uv, [-0.5, -0.5], [plane.width_px - 0.5, plane.height_px - 0.5])
+        for key, lift in (("clicks", 0.35), ("grab", 0.3)):
+            h = self._handles.get(key)
+            if h is not None:
+                pos = np.array(h.batched_positions, dtype=np.float64)
+                pos[idx] = plane.to_world(uv, lift)[0]
+                h.batched_positions = pos
+        if event.phase == "end":
+            self._drag.pop(key, None)
+            view = self.view
+            self.submit(lambda: self._move(view, lid, uv))
+
+    def _move(self, view: str, lid: str, uv: np.ndarray) -> None:
+        s = self.session
+        if s is None or view != self.view:
+            return
+        s.move(view, lid, uv)
+        self.events.append((time.monotonic(), f"move {view} {lid}"))
+        self._redraw()
+        self._request_hints()
+
+    # ------------------------------------------------------------------ hints
+    def _request_hints(self) -> None:
+        s = self.session
+        if s is None:
+            return
+        with self._hint_cond:
+            self._hint_request = s.revision
+            self._hint_cond.notify_all()
+
+    def _hint_run(self) -> None:
+        done = -1
+        while True:
+            with self._hint_cond:
+                while self._hint_request == done:
+                    self._hint_cond.wait()
+                if self._hint_request == -2:
+                    return
+                done = self._hint_request
+            s = self.session
+            if s is None:
+                continue
+            try:
+                g = s.guidance()
+            except Exception:
+                log.exception("naseview: guidance failed")
+                continue
+            if s is self.session:
+                self.guidance = g
+                self.submit(self._redraw)
+
+    # ------------------------------------------------------------------ reconstruct
+    def reconstruct(self) -> Path:
+        """Write the case directory and open it in the app (which reconstructs it)."""
+        s = self._need_session()
+        self.wait_idle(10.0)
+        out = self.work_dir / s.case_id / "case"
+        path = s.write_case(out)
+        self.rec_md.content = (f"Case saved in `{out}`  \nRerun: `naseview reconstruct "
+                               f"{out} -o {out.parent / 'reconstruction'}`")
+        self.events.append((time.monotonic(), "reconstruct"))
+        if self.app is not None:
+            self.hide()
+            self.app.open(out)
+        return path
+
+    # ------------------------------------------------------------------ messages
+    def show_error(self, message: str | None, client: Any = None) -> None:
+        """A red line in the panel (``None`` clears it) and a notification."""
+        if not message:
+            self.error.visible = False
+            return
+        self.error.content = f"<span style='color:#c0392b'>**{message}**</span>"
+        self.error.visible = True
+        self.notify("naseview", message, client, color="red")
+
+    def notify(self, title: str, body: str, client: Any = None, color: str = "blue") -> None:
+        targets = [client] if client is not None else list(
+            self.server.get_clients().values())
+        for c in targets:
+            try:
+                c.add_notification(title, body, color=color, auto_close_seconds=5.0)
+            except Exception:  # client gone
+                pass
+
+
+class NewPatientHook:
+    """What :func:`install_new_patient` adds to the app.
+
+    Attributes:
+        annotate: the :class:`AnnotatePage`.
+        patient: the :class:`~naseview.app.patient_mode.PatientMode`.
+    """
+
+    def __init__(self, annotate: AnnotatePage, patient: Any) -> None:
+        self.annotate = annotate
+        self.patient = patient
+
+    def run(self, fn: Callable[[], Any]) -> None:
+        """Run a button action; errors become a red notification."""
+        try:
+            fn()
+        except NaseviewError as e:
+            self.annotate.notify("naseview", str(e), color="red")
+        except Exception as e:
+            log.exception("naseview: action failed")
+            self.annotate.notify("naseview", f"{type(e).__name__}: {e}", color="red")
+
+    def close(self) -> None:
+        self.annotate.close()
+        self.patient._stop_turntable()
+
+
+def install_new_patient(server: Any, app: Any, work_dir: str | Path | None = None,
+                        diagram_model: Any = None) -> NewPatientHook:
+    """Hook for :class:`~naseview.app.serve.NaseviewApp`: a "Patient" folder at the top of
+    the main panel (New patient, Patient mode, Consultation report) plus the two pages.
+    """
+    import viser
+
+    from naseview.app.patient_mode import PatientMode
+
+    annotate = AnnotatePage(server, app, work_dir, diagram_model)
+    hook = NewPatientHook(annotate, PatientMode(server, app, annotate.work_dir))
+    gui = server.gui
+    with gui.add_folder("Patient", order=-100.0, expand_by_default=True):
+        new = gui.add_button("New patient: photos and landmarks", icon=viser.Icon.USER_PLUS,
+                             color="green")
+        pm = gui.add_button("Patient mode (presentation)", icon=viser.Icon.PRESENTATION)
+        rep = gui.add_button("Consultation report", icon=viser.Icon.FILE_TEXT)
+    new.on_click(lambda e: hook.run(annotate.show_start))
+    pm.on_click(lambda e: hook.run(hook.patient.enter))
+    rep.on_click(lambda e: hook.run(lambda: hook.patient.download_report(e.client)))
+    return hook
+
+
+__all__ = ["AnnotatePage", "LandmarkDiagrams", "NewPatientHook", "PhotoPlane",
+           "install_new_patient", "ring_mesh"]

@@ -1,0 +1,367 @@
+"""Patient mode: a clean presentation of the 3D nose for the consultation.
+
+Technical overlays (landmark spheres, curves, ad-landmarks, cameras, labels, the nose
+highlight, the colour map) are hidden and the control panel is folded away; what is
+left is the face, a slow turntable (a +-40 degree swing about the vertical axis through
+the nose, period 24 s), a before / after slider that blends the nose between the
+reconstruction and the simulation, large 3D labels with the key measurements (before ->
+after) and the sentence "A simulation is not a promised outcome." A button writes the
+consultation report (:mod:`naseview.report`) and downloads it.
+
+Leaving patient mode restores the app's display settings from its panel.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from naseview.errors import NaseviewError
+from naseview.report import DISCLAIMER, ReportData, measurement_rows, write_report
+
+log = logging.getLogger(__name__)
+
+TURNTABLE_DEG = 40.0
+TURNTABLE_PERIOD_S = 24.0
+TURNTABLE_HZ = 25.0
+
+KEY_MEASUREMENTS: tuple[tuple[str, str], ...] = (
+    ("nasal_length", "Length n–prn"),
+    ("nasal_width", "Width al–al"),
+    ("nasofrontal_angle", "Nasofrontal angle"),
+    ("tip_projection", "Tip projection"),
+)
+"""Measurements shown as large labels: (name, short title)."""
+
+
+def blend(V0: np.ndarray, V1: np.ndarray, t: float) -> np.ndarray:
+    """(N, 3) vertices ``(1 - t) V0 + t V1`` (before -> after, t in [0, 1])."""
+    t = float(np.clip(t, 0.0, 1.0))
+    return (1.0 - t) * np.asarray(V0, np.float64) + t * np.asarray(V1, np.float64)
+
+
+def turntable_eye(target: np.ndarray, distance: float, seconds: float,
+                  amplitude_deg: float = TURNTABLE_DEG,
+                  period_s: float = TURNTABLE_PERIOD_S) -> np.ndarray:
+    """(3,) camera position of the turntable at time ``seconds``: a sinusoidal swing of
+    ``amplitude_deg`` about the vertical axis through ``target``, slightly from above."""
+    a = math.radians(amplitude_deg) * math.sin(2.0 * math.pi * seconds / period_s)
+    d = np.array([math.sin(a), 0.12, math.cos(a)])
+    return np.asarray(target, np.float64) + distance * d / np.linalg.norm(d)
+
+
+def label_text(name: str, title: str, before: dict[str, float],
+               after: dict[str, float] | None) -> str | None:
+    """``"Length n–prn  47.1 → 45.3 mm"`` (or just the value without a simulation)."""
+    rows = {r["name"]: r for r in measurement_rows(before, after)}
+    r = rows.get(name)
+    if r is None:
+        return None
+    unit = {"mm": " mm", "deg": "°"}.get(r["unit"], "")
+    digits = 2 if r["unit"] == "" else 1
+    b = f"{r['before']:.{digits}f}"
+    if r["after"] is None or abs(r["after"] - r["before"]) < 0.05:
+        return f"{title}  {b}{unit}"
+    return f"{title}  {b} → {r['after']:.{digits}f}{unit}"
+
+
+class PatientMode:
+    """The presentation view of the app's current case.
+
+    Args:
+        server: the ``viser.ViserServer``.
+        app: the :class:`~naseview.app.serve.NaseviewApp` whose scene and editor are shown.
+        work_dir: where reports are written (``<work_dir>/<case id>/report/``).
+    """
+
+    def __init__(self, server: Any, app: Any, work_dir: str | Path) -> None:
+        import viser
+
+        self.server = server
+        self.app = app
+        self.work_dir = Path(work_dir)
+        self.active = False
+        self.t = 1.0
+        self._labels: list[Any] = []
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._lock = threading.RLock()
+        gui = server.gui
+        self.panel = gui.add_panel(visible=False)
+        self.panel.dock_left()
+        self.panel.set_width(340)
+        with self.panel.add_tab("Patient view", icon=viser.Icon.PRESENTATION):
+            self.title = gui.add_html("")
+            self.slider = gui.add_slider("Before ↔ After", min=0.0, max=1.0, step=0.05,
+                                         initial_value=1.0)
+            self.turntable = gui.add_checkbox("Turntable", True)
+            self.table = gui.add_html("")
+            self.disclaimer = gui.add_html(
+                f"<p style='font-size:15px;color:#a04000;margin:6px 0'><b>{DISCLAIMER}</b>"
+                "</p>")
+            self.deid = gui.add_checkbox("De-identified report (no photos)", False)
+            self.report_btn = gui.add_button("Consultation report",
+                                             icon=viser.Icon.FILE_TEXT)
+            self.exit_btn = gui.add_button("Exit patient mode", icon=viser.Icon.X)
+        self.slider.on_update(lambda e: self._guard(lambda: self.set_blend(self.slider.value)))
+        self.turntable.on_update(lambda e: self._guard(self._turntable_changed))
+        self.report_btn.on_click(lambda e: self._guard(lambda: self.download_report(e.client)))
+        self.exit_btn.on_click(lambda e: self._guard(self.exit))
+
+    # ------------------------------------------------------------------ helpers
+    def _guard(self, fn: Any) -> None:
+        try:
+            fn()
+        except NaseviewError as e:
+            self._notify(str(e), "red")
+        except Exception as e:
+            log.exception("naseview: patient mode action failed")
+            self._notify(f"{type(e).__name__}: {e}", "red")
+
+    def _notify(self, body: str, color: str = "blue", client: Any = None) -> None:
+        for c in ([client] if client is not None else self.server.get_clients().values()):
+            try:
+                c.add_notification("naseview", body, color=color, auto_close_seconds=6.0)
+            except Exception:
+                pass
+
+    def _state(self) -> tuple[Any, Any, Any]:
+        app = self.app
+        ctl = getattr(app, "controller", None)
+        scene = getattr(app, "scene", None)
+        if ctl is None or scene is None:
+            raise NaseviewError("no reconstruction is open yet; open a case (or finish a "
+                                "new patient) before patient mode")
+        return ctl, scene, ctl.baseline
+
+    def _measurements(self) -> tuple[dict[str, float], dict[str, float] | None]:
+        ctl, _, base = self._state()
+        sim = ctl.simulation
+        edited = not np.array_equal(sim.V, base.V)
+        return dict(base.measurements), (dict(sim.measurements) if edited else None)
+
+    # ------------------------------------------------------------------ enter / exit
+    def enter(self) -> None:
+        """Hide the technical overlays and the panel; show the presentation."""
+        ctl, scene, base = self._state()
+        with self._lock:
+            self.active = True
+            scene.set_visible(labels=False, curves=False, ad_landmarks=False, cameras=False,
+                              landmarks=False, highlight=False)
+            scene.set_view(colormap=False, original=False, overlay=False)
+            try:
+                self.server.gui.main_panel.minimize()
+            except Exception:
+                pass
+            self.panel.visible = True
+            self.panel.expand()
+            before, after = self._measurements()
+            cid = getattr(self.app, "case_id", "")
+            self.title.content = (f"<div style='font-size:20px;font-weight:600'>{cid}</div>"
+                                  + ("<div style='color:#666'>Drag the slider to compare "
+                                     "before and after</div>" if after else
+                                     "<div style='color:#666'>No simulation yet: showing the "
+                                     "reconstruction</div>"))
+            self.slider.disabled = after is None
+            self.table.content = self._table_html(before, after)
+            self._make_labels(before, after)
+            self.t = 1.0
+            self.slider.value = 1.0
+        self.set_blend(1.0)
+        self._turntable_changed()
+
+    def exit(self) -> None:
+        """Back to the editor with its display settings."""
+        with self._lock:
+            if not self.active:
+                return
+            self.active = False
+            self._stop_turntable()
+            for h in self._labels:
+                try:
+                    h.remove()
+                except Exception:
+                    pass
+            self._labels = []
+            self.panel.visible = False
+            try:
+                self.server.gui.main_panel.expand()
+            except Exception:
+                pass
+        app = self.app
+        scene = getattr(app, "scene", None)
+        p = getattr(app, "panels", None)
+        if scene is not None and p is not None:
+            scene.set_visible(labels=p.labels.value, curves=p.show_curves.value,
+                              ad_landmarks=p.show_ad.value, cameras=p.show_cameras.value,
+                              landmarks=p.show_landmarks.value, highlight=p.highlight.value)
+            scene.set_view(colormap=p.colormap.value, original=p.show_original.value,
+                           overlay=p.overlay.value)
+        ctl = getattr(app, "controller", None)
+        if ctl is not None:
+            try:
+                app._set_camera(ctl.baseline)
+            except Exception:
+                log.debug("naseview: camera reset failed", exc_info=True)
+
+    # ------------------------------------------------------------------ before / after
+    def set_blend(self, t: float) -> None:
+        """Show the nose ``t`` of the way from before (0) to after (1)."""
+        ctl, scene, base = self._state()
+        self.t = float(np.clip(t, 0.0, 1.0))
+        if abs(float(self.slider.value) - self.t) > 1e-9:
+            self.slider.value = self.t      # its callback calls back here: same t, no-op
+        V = blend(base.V, ctl.simulation.V, self.t)
+        with self.server.atomic():
+            scene.nose.vertices = V[scene.nose_ids]
+            if np.any(ctl.simulation.V[scene.rest_ids] != base.V[scene.rest_ids]):
+                scene.rest.vertices = V[scene.rest_ids]
+
+    # ------------------------------------------------------------------ labels
+    def _table_html(self, before: dict[str, float], after: dict[str, float] | None) -> str:
+        rows = []
+        for name, title in KEY_MEASUREMENTS:
+            text = label_text(name, title, before, after)
+            if text is None:
+                continue
+            head, _, value = text.partition("  ")
+            rows.append(f"<tr><td style='padding:4px 8px 4px 0;color:#555'>{head}</td>"
+                        f"<td style='padding:4px 0;font-size:20px;font-weight:600'>{value}"
+                        "</td></tr>")
+        return "<table style='font-size:16px;border-collapse:collapse'>" + "".join(rows) \
+            + "</table>"
+
+    def _make_labels(self, before: dict[str, float], after: dict[str, float] | None) -> None:
+        _, scene, base = self._state()
+        for h in self._labels:
+            h.remove()
+        self._labels = []
+        L = base.landmarks
+        # on the cheek beside the nose, on the subject's left (image right from the front,
+        # away from the docked panel), at the height of what each one measures: the nose
+        # itself stays unobstructed and the labels stay in view during the turntable
+        nose = base.V[base.nose_ids] if len(base.nose_ids) else base.V
+        face_x = float(nose[:, 0].max()) + 8.0
+        z = float(np.median(nose[:, 2]))
+
+        def anchor(name: str) -> np.ndarray | None:
+            ys = {"nasofrontal_angle": ("n",), "nasal_length": ("n", "prn"),
+                  "tip_projection": ("prn",), "nasal_width": ("al_l", "al_r")}[name]
+            if not all(i in L for i in ys):
+                return None
+            y = float(np.mean([L[i][1] for i in ys]))
+            return np.array([face_x, y, z])
+
+        placed: list[tuple[str, str, np.ndarray]] = []
+        for name, title in KEY_MEASUREMENTS:
+            text = label_text(name, title, before, after)
+            p = anchor(name)
+            if text is not None and p is not None:
+                placed.append((name, text, p))
+        placed.sort(key=lambda t: -t[2][1])          # top to bottom, at least 8 mm apart
+        for k in range(1, len(placed)):
+            if placed[k - 1][2][1] - placed[k][2][1] < 8.0:
+                placed[k][2][1] = placed[k - 1][2][1] - 8.0
+        for i, (_, text, p) in enumerate(placed):
+            self._labels.append(scene.scene.add_label(
+                f"/patient/label{i}", text, position=tuple(p), font_screen_scale=1.5,
+                anchor="center-left"))
+
+    # ------------------------------------------------------------------ turntable
+    def _turntable_changed(self) -> None:
+        if self.active and self.turntable.value:
+            self._start_turntable()
+        else:
+            self._stop_turntable()
+
+    def _start_turntable(self) -> None:
+        if self._thread is not None and self._thread.is_alive():
+            return
+        _, scene, base = self._state()
+        nose = base.V[base.nose_ids] if len(base.nose_ids) else base.V
+        target = 0.5 * (nose.min(axis=0) + nose.max(axis=0))
+        size = float(np.ptp(nose, axis=0).max()) if len(nose) else 60.0
+        distance = max(160.0, 4.2 * size)
+        self._stop.clear()
+
+        def run() -> None:
+            t0 = time.monotonic()
+            while not self._stop.wait(1.0 / TURNTABLE_HZ):
+                eye = turntable_eye(target, distance, time.monotonic() - t0)
+                for c in list(self.server.get_clients().values()):
+                    try:
+                        with c.atomic():
+                            c.camera.position = tuple(eye)   # then look_at (viser
+                            c.camera.look_at = tuple(target)  # shifts it with position)
+                            c.camera.up_direction = (0.0, 1.0, 0.0)
+                    except Exception:
+                        pass
+
+        self._thread = threading.Thread(target=run, name="naseview-turntable", daemon=True)
+        self._thread.start()
+
+    def _stop_turntable(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2.0)
+            self._thread = None
+
+    # ------------------------------------------------------------------ report
+    def report_data(self) -> ReportData:
+        """The consultation report of the current case (before = reconstruction, after =
+        the simulation when it differs)."""
+        ctl, _, base = self._state()
+        sim = ctl.simulation
+        edited = not np.array_equal(sim.V, base.V)
+        app = self.app
+        photos: dict[str, np.ndarray] = {}
+        case = getattr(app, "case", None)
+        if case is not None:
+            for v in case.views:
+                try:
+                    photos[v] = case.load_image(v)
+                except NaseviewError:
+                    pass
+        return ReportData(
+            case_id=str(getattr(app, "case_id", "case")), V_before=base.V, F=base.F,
+            nose_ids=base.nose_ids, measurements_before=dict(base.measurements),
+            V_after=sim.V if edited else None,
+            measurements_after=dict(sim.measurements) if edited else None,
+            photos=photos, notes=getattr(case, "notes", "") if case is not None else "",
+            credit=str(getattr(app, "credit", "") or ""))
+
+    def write_report(self, deidentified: bool | None = None) -> Path:
+        """Write ``<work_dir>/<case id>/report/report[-deidentified].html`` (+ PNGs)."""
+        data = self.report_data()
+        deid = self.deid.value if deidentified is None else deidentified
+        name = "report-deidentified.html" if deid else "report.html"
+        safe = "".join(ch if ch.isalnum() or ch in "-_." else "-" for ch in data.case_id)
+        return write_report(data, self.work_dir / (safe or "case") / "report" / name,
+                            deidentified=bool(deid))
+
+    def download_report(self, client: Any = None) -> None:
+        """Write the report in the background and send the HTML to the browser."""
+        self._state()
+        self._notify("Preparing the consultation report…", "blue", client)
+
+        def job() -> None:
+            try:
+                path = self.write_report()
+                target = client if client is not None else self.server
+                target.send_file_download(path.name, path.read_bytes(),
+                                          save_immediately=True)
+                self._notify(f"Report saved: {path}", "green", client)
+            except Exception as e:
+                log.exception("naseview: report failed")
+                self._notify(f"Report failed: {e}", "red", client)
+
+        threading.Thread(target=job, name="naseview-report", daemon=True).start()
+
+
+__all__ = ["KEY_MEASUREMENTS", "PatientMode", "blend", "label_text", "turntable_eye"]

@@ -1,0 +1,564 @@
+"""The 3D scene of the app: face, nose, landmarks, curves, ad-landmarks, cameras.
+
+Everything lives in the SPEC frame (mm, +y up). The face is split in two meshes so that a
+live update sends only the nose: ``/face/rest`` (static) and ``/face/nose`` (every triangle
+touching the nose region; its outer ring never moves, so there is no crack). The
+landmarks are two batched sphere meshes: the editable ones (inside the nose region) take
+``on_drag``; the others are drawn grey and fixed.
+
+Pure helpers (:func:`split_region`, :func:`displacement_colors`, :func:`colorbar_image`,
+:func:`camera_pose`) carry the geometry; :class:`FaceScene` owns the viser handles.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from naseview.app.state import EditController, Landmarks, Simulation
+from naseview.camera import Camera
+from naseview.landmarks import CURVE_NAMES, LANDMARKS
+
+log = logging.getLogger(__name__)
+
+SKIN = (226, 192, 168)
+NOSE = SKIN  # the nose keeps the skin colour; the region is highlighted by its outline
+OUTLINE = (205, 110, 60)
+INSIDE = (70, 58, 58)
+ORIGINAL = (80, 130, 230)
+LANDMARK_EDITABLE = (214, 38, 40)
+LANDMARK_FIXED = (140, 140, 140)
+LANDMARK_ACTIVE = (255, 214, 0)
+CURVE = (20, 160, 60)
+AD_LANDMARK = (40, 110, 220)
+SPHERE_RADIUS_MM = 1.1
+
+
+# ---------------------------------------------------------------------------- geometry
+def split_region(F: np.ndarray, region: np.ndarray, n_vertices: int
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Split a face mesh into the triangles touching a region and the rest.
+
+    Args:
+        F: (M, 3) triangles.
+        region: (K,) vertex ids of the region (e.g. the nose).
+        n_vertices: number of vertices of the mesh.
+    Returns:
+        ``(part_ids, part_F, rest_ids, rest_F)``: vertex ids of each part (sorted, into the
+        full mesh) and its triangles re-indexed to those ids. A triangle with at least one
+        region vertex belongs to the part, so vertices shared by both parts lie outside
+        the region.
+    """
+    F = np.asarray(F, dtype=np.int64)
+    in_region = np.zeros(n_vertices, dtype=bool)
+    in_region[np.asarray(region, dtype=np.int64)] = True
+    touch = in_region[F].any(axis=1)
+
+    def compact(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        ids = np.unique(faces)
+        remap = np.full(n_vertices, -1, dtype=np.int64)
+        remap[ids] = np.arange(len(ids))
+        return ids, remap[faces]
+
+    part_ids, part_F = compact(F[touch])
+    rest_ids, rest_F = compact(F[~touch])
+    return part_ids, part_F, rest_ids, rest_F
+
+
+def region_outline(F: np.ndarray, region: np.ndarray, n_vertices: int) -> np.ndarray:
+    """(E, 2) vertex pairs of the border of a region: edges of exactly one triangle whose
+    three corners lie in ``region`` (an outline drawn instead of tinting the region)."""
+    F = np.asarray(F, dtype=np.int64)
+    inside = np.zeros(n_vertices, dtype=bool)
+    inside[np.asarray(region, dtype=np.int64)] = True
+    Fr = F[inside[F].all(axis=1)]
+    if len(Fr) == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    E = np.sort(np.concatenate([Fr[:, [0, 1]], Fr[:, [1, 2]], Fr[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(E, axis=0, return_counts=True)
+    return uniq[count == 1]
+
+
+def outline_smoother(edges: np.ndarray, iterations: int = 4) -> tuple[np.ndarray,
+                                                                     np.ndarray]:
+    """Display smoothing of a region outline (mesh-edge zig-zags become a soft curve).
+
+    Args:
+        edges: (E, 2) vertex pairs (:func:`region_outline`).
+        iterations: rounds of "half self, half mean of outline neighbours".
+    Returns:
+        ``(vertex_ids (n,), S (n, n))``: the outline's vertices and the smoothing matrix;
+        the smoothed points are ``S @ V[vertex_ids]`` and the segments
+        ``np.searchsorted(vertex_ids, edges)`` index them.
+    """
+    ids = np.unique(edges)
+    n = len(ids)
+    loc = np.searchsorted(ids, edges)
+    A = np.zeros((n, n))
+    A[loc[:, 0], loc[:, 1]] = 1.0
+    A[loc[:, 1], loc[:, 0]] = 1.0
+    deg = A.sum(axis=1, keepdims=True)
+    step = 0.5 * np.eye(n) + 0.5 * A / np.where(deg > 0, deg, 1.0)
+    step[deg[:, 0] == 0] = np.eye(n)[deg[:, 0] == 0]
+    return ids, np.linalg.matrix_power(step, max(0, int(iterations)))
+
+
+def hole_caps(V: np.ndarray, F: np.ndarray, keep_out: np.ndarray | None = None,
+              depth: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """Recessed fans closing the holes of a mesh (eye and mouth openings).
+
+    Every boundary loop but the longest (the outer border) is closed by a fan to its
+    centroid, pushed ``depth`` x its mean radius into the face (against the mean
+    normal). Loops with a vertex in ``keep_out`` (e.g. vertices that move) are skipped.
+
+    Returns:
+        ``(Vc, Fc)``: (n, 3) cap vertices (loop vertices copied, then centres), (m, 3)
+        triangles; empty when the mesh has no such hole.
+    """
+    import igl
+
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    loops = [np.asarray(lp, dtype=np.int64) for lp in igl.boundary_loop_all(F)]
+    if len(loops) < 2:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+
+    def perimeter(lp: np.ndarray) -> float:
+        P = V[lp]
+        return float(np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).sum())
+
+    loops.sort(key=perimeter)
+    out_V: list[np.ndarray] = []
+    out_F: list[np.ndarray] = []
+    n = 0
+    bad = set() if keep_out is None else set(np.asarray(keep_out).tolist())
+    N = vertex_normals(V, F)
+    for lp in loops[:-1]:
+        if bad.intersection(lp.tolist()):
+            continue
+        P = V[lp]
+        c = P.mean(axis=0)
+        nrm = N[lp].mean(axis=0)
+        nrm /= max(float(np.linalg.norm(nrm)), 1e-12)
+        r = float(np.linalg.norm(P - c, axis=1).mean())
+        k = len(lp)
+        out_V += [P, (c - depth * r * nrm)[None]]
+        i = np.arange(k)
+        out_F.append(np.column_stack([n + i, n + (i + 1) % k, np.full(k, n + k)]))
+        n += k + 1
+    if not out_F:
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
+    return np.concatenate(out_V), np.concatenate(out_F)
+
+
+def vertex_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(N, 3) unit area-weighted vertex normals of a mesh (outward for CCW faces)."""
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    N = np.zeros_like(V)
+    for k in range(3):
+        np.add.at(N, F[:, k], fn)
+    norm = np.linalg.norm(N, axis=1, keepdims=True)
+    return N / np.where(norm > 0, norm, 1.0)
+
+
+_RDBU = np.array([[33, 102, 172], [103, 169, 207], [209, 229, 240], [247, 247, 247],
+                  [253, 219, 199], [239, 138, 98], [178, 24, 43]], dtype=np.float64)
+
+
+def diverging_colors(values: np.ndarray, limit: float,
+                     neutral: tuple[int, int, int] | None = None) -> np.ndarray:
+    """Blue (``-limit``) - white (0) - red (``+limit``) colours, (N, 3) uint8.
+
+    With ``neutral`` (e.g. the skin colour) the middle of the scale is that colour, so an
+    unchanged surface keeps its look and only the change is coloured.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    t = np.clip((v / max(limit, 1e-9) + 1.0) / 2.0, 0, 1)
+    x = t * (len(_RDBU) - 1)
+    i = np.minimum(np.floor(x).astype(int), len(_RDBU) - 2)
+    f = (x - i)[:, None]
+    c = _RDBU[i] * (1 - f) + _RDBU[i + 1] * f
+    if neutral is not None:
+        a = np.clip(np.abs(v) / max(limit, 1e-9), 0, 1)[:, None] ** 0.6
+        ends = np.where((v < 0)[:, None], _RDBU[0], _RDBU[-1])
+        c = np.asarray(neutral, dtype=np.float64) * (1 - a) + ends * a
+    return np.round(c).astype(np.uint8)
+
+
+def vertex_color_glb(V: np.ndarray, F: np.ndarray, colors: np.ndarray) -> bytes:
+    """A GLB of a mesh with per-vertex sRGB ``colors`` (N, 3) uint8 and smooth normals,
+    with a matte, non-metallic material so it shades like viser's simple meshes (glTF's
+    default material is fully metallic)."""
+    import json
+    import struct
+
+    import trimesh
+
+    mesh = trimesh.Trimesh(np.asarray(V, np.float64), np.asarray(F, np.int64), process=False)
+    linear = np.round(255.0 * (np.asarray(colors) / 255.0) ** 2.2).astype(np.uint8)
+    mesh.visual.vertex_colors = np.column_stack([linear, np.full(len(linear), 255, np.uint8)])
+    _ = mesh.vertex_normals                     # cached normals are exported
+    glb = mesh.export(file_type="glb")
+    n = struct.unpack("<I", glb[12:16])[0]
+    doc = json.loads(glb[20:20 + n])
+    rest = glb[20 + n:]
+    doc["materials"] = [{"pbrMetallicRoughness": {"baseColorFactor": [1, 1, 1, 1],
+                                                  "metallicFactor": 0.0,
+                                                  "roughnessFactor": 1.0},
+                         "doubleSided": True}]
+    for m in doc.get("meshes", []):
+        for prim in m.get("primitives", []):
+            prim["material"] = 0
+    js = json.dumps(doc, separators=(",", ":")).encode("utf-8")
+    js += b" " * (-len(js) % 4)
+    body = struct.pack("<II", len(js), 0x4E4F534A) + js + rest
+    return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
+
+
+def signed_displacement(V0: np.ndarray, V: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(N,) displacement along the outward normal, mm: + outwards (augmentation),
+    - inwards (reduction). ``V0``, ``V``, ``normals`` are (N, 3)."""
+    return np.einsum("ij,ij->i", np.asarray(V) - np.asarray(V0), normals)
+
+
+def nice_limit(max_abs_mm: float) -> float:
+    """A round colour-scale limit (mm) at least ``max_abs_mm`` (minimum 0.5 mm)."""
+    for lim in (0.5, 1.0, 2.0, 3.0, 5.0, 8.0, 10.0, 15.0, 20.0, 30.0, 50.0):
+        if max_abs_mm <= lim:
+            return lim
+    return float(np.ceil(max_abs_mm / 10.0) * 10.0)
+
+
+def colorbar_image(limit: float, width: int = 300, height: int = 54,
+                   neutral: tuple[int, int, int] | None = None) -> np.ndarray:
+    """(H, W, 3) uint8 RGB colour bar with tick labels for :func:`diverging_colors`."""
+    import cv2
+
+    img = np.full((height, width, 3), 255, dtype=np.uint8)
+    pad = 18
+    bar = diverging_colors(np.linspace(-limit, limit, width - 2 * pad), limit, neutral)
+    img[4:22, pad:width - pad] = bar[None, :, :]
+    cv2.rectangle(img, (pad, 4), (width - pad - 1, 21), (90, 90, 90), 1)
+    for v in (-limit, -limit / 2, 0.0, limit / 2, limit):
+        x = int(round(pad + (v + limit) / (2 * limit) * (width - 2 * pad - 1)))
+        cv2.line(img, (x, 22), (x, 26), (60, 60, 60), 1)
+        text = f"{v:+g}" if v else "0"
+        (tw, _), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.4, 1)
+        cv2.putText(img, text, (int(np.clip(x - tw // 2, 0, width - tw)), 40),
+                    cv2.FONT_HERSHEY_SIMPLEX, 0.4, (40, 40, 40), 1, cv2.LINE_AA)
+    cv2.putText(img, "mm  (blue: inwards, red: outwards)", (pad, 52),
+                cv2.FONT_HERSHEY_SIMPLEX, 0.36, (70, 70, 70), 1, cv2.LINE_AA)
+    return img
+
+
+def camera_pose(cam: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """(wxyz (4,), position (3,)) of a SPEC camera for viser (OpenCV axes, camera to
+    world)."""
+    from viser import transforms as vtf
+
+    return vtf.SO3.from_matrix(cam.R.T).wxyz, cam.center
+
+
+def curve_segments(points: np.ndarray, closed: bool) -> np.ndarray:
+    """(N, 3) polyline -> (S, 2, 3) segments (closing the loop when ``closed``)."""
+    P = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(P) < 2:
+        return np.zeros((0, 2, 3))
+    Q = np.concatenate([P, P[:1]]) if closed else P
+    return np.stack([Q[:-1], Q[1:]], axis=1)
+
+
+def _icosphere(radius: float) -> tuple[np.ndarray, np.ndarray]:
+    import trimesh
+
+    s = trimesh.creation.icosphere(subdivisions=2, radius=radius)
+    return np.asarray(s.vertices), np.asarray(s.faces)
+
+
+# ---------------------------------------------------------------------------- the scene
+class FaceScene:
+    """Viser handles of one baseline, updated from an :class:`EditController`.
+
+    Args:
+        server: the ``viser.ViserServer`` (its shared ``server.scene`` reaches every
+            browser).
+        controller: the editor.
+        editable: landmark ids that can be dragged (inside the deforming region).
+        cameras: view -> camera of the reconstruction (frustums), may be empty.
+        photos: view -> (H, W, 3) uint8 RGB thumbnail shown in the frustum.
+        region: vertices the solver may move (default ``baseline.nose_ids``); the nose
+            mesh is every triangle touching them.
+    """
+
+    def __init__(self, server: Any, controller: EditController, editable: Sequence[str],
+                 cameras: Mapping[str, Camera] | None = None,
+                 photos: Mapping[str, np.ndarray] | None = None,
+                 region: np.ndarray | None = None) -> None:
+        self.server = server
+        self.scene = scene = server.scene
+        self.ctl = controller
+        base = controller.baseline
+        self.base = base
+        self.editable = [i for i in editable if i in base.landmarks]
+        self.fixed = [i for i in base.landmarks if i not in self.editable]
+        self._lock = threading.Lock()
+        self.region = np.asarray(base.nose_ids if region is None else region, np.int64)
+        self.nose_ids, nose_F, self.rest_ids, rest_F = split_region(
+            base.F, self.region, len(base.V))
+        self._nose_only = np.setdiff1d(self.nose_ids, self.rest_ids)
+        self.normals = vertex_normals(base.V, base.F)
+        self.show_colormap = False
+        self.show_original = False
+        self.show_overlay = False
+        self.highlight = True
+        self.colormap_limit = 0.0
+        self._last_colormap = 0.0
+        self._active: dict[int, tuple[str, np.ndarray]] = {}
+        self.updates = 0
+        self.last_update_seconds = 0.0
+
+        scene.set_up_direction("+y")
+        # dark recessed caps in the eye and mouth openings (not in the moving part)
+        cv, cf = hole_caps(base.V, base.F, keep_out=self.nose_ids)
+        self.caps = scene.add_mesh_simple("/face/caps", cv, cf, color=INSIDE, side="double",
+                                          cast_shadow=False, receive_shadow=False) \
+            if len(cf) else None
+        self.rest = scene.add_mesh_simple("/face/rest", base.V[self.rest_ids], rest_F,
+                                          color=SKIN, flat_shading=False, side="front",
+                                          cast_shadow=False, receive_shadow=False)
+        self.nose_F = nose_F
+        self.nose = scene.add_mesh_simple("/face/nose", base.V[self.nose_ids], nose_F,
+                                          color=NOSE, flat_shading=False, side="double",
+                                          cast_shadow=False, receive_shadow=False)
+        # the original nose (triangles inside the nose region), lifted 0.08 mm along the
+        # normals so it does not z-fight where nothing changed
+        inside = np.zeros(len(base.V), dtype=bool)
+        inside[np.asarray(base.nose_ids, np.int64)] = True
+        gF = np.asarray(base.F, np.int64)[inside[base.F].all(axis=1)]
+        if len(gF) == 0:
+            gF = np.asarray(base.F, np.int64)[inside[base.F].any(axis=1)]
+        g_ids = np.unique(gF)
+        ghost = base.V[g_ids] + 0.08 * self.normals[g_ids]
+        self.original = scene.add_mesh_simple(
+            "/face/original", ghost, np.searchsorted(g_ids, gF), color=ORIGINAL, opacity=0.3,
+            flat_shading=False, side="front", visible=False, cast_shadow=False,
+            receive_shadow=False)
+        self.colormap: Any = None
+        edges = region_outline(base.F, base.nose_ids, len(base.V))
+        self._outline_ids, self._outline_S = outline_smoother(edges)
+        self._outline_loc = np.searchsorted(self._outline_ids, edges)
+        self.outline = scene.add_line_segments(
+            "/face/nose_outline", self._outline_points(base.V), OUTLINE, thickness=2.0,
+            thickness_units="screen") if len(edges) else None
+
+        sv, sf = _icosphere(SPHERE_RADIUS_MM)
+        unit = np.tile([1.0, 0.0, 0.0, 0.0], (1, 1))
+        lms = controller.landmarks
+        self.spheres = None
+        if self.editable:
+            self.spheres = scene.add_batched_meshes_simple(
+                "/landmarks/editable", sv, sf,
+                batched_wxyzs=np.repeat(unit, len(self.editable), axis=0),
+                batched_positions=np.array([lms[i] for i in self.editable]),
+                batched_colors=np.array([LANDMARK_EDITABLE] * len(self.editable),
+                                        dtype=np.uint8),
+                cast_shadow=False, receive_shadow=False)
+            self.spheres.on_drag(self._on_drag)
+        self.fixed_spheres = None
+        if self.fixed:
+            self.fixed_spheres = scene.add_batched_meshes_simple(
+                "/landmarks/fixed", sv, sf,
+                batched_wxyzs=np.repeat(unit, len(self.fixed), axis=0),
+                batched_positions=np.array([lms[i] for i in self.fixed]),
+                batched_colors=LANDMARK_FIXED, cast_shadow=False, receive_shadow=False)
+        self.labels = {
+            i: scene.add_label(f"/labels/{i}", LANDMARKS[i].paper if i in LANDMARKS else i,
+                               position=lms[i] + np.array([0.0, 1.6, 0.0]), visible=False,
+                               font_screen_scale=0.8, anchor="bottom-center")
+            for i in base.landmarks}
+        self.curves: dict[str, Any] = {}
+        for name in CURVE_NAMES:
+            c = base.curves.get(name)
+            if c is None or len(c) < 2:
+                continue
+            self.curves[name] = scene.add_line_segments(
+                f"/curves/{name}", curve_segments(c, name.startswith("sill")), CURVE,
+                thickness=2.5, thickness_units="screen")
+        self.ad = None
+        if len(base.ad_landmarks):
+            self.ad = scene.add_point_cloud(
+                "/ad_landmarks", np.asarray(base.ad_landmarks), AD_LANDMARK,
+                point_size=0.6, point_shape="circle", precision="float32",
+                point_shading="flat")
+        self.frustums: dict[str, Any] = {}
+        self._camera_labels: list[Any] = []
+        for view, cam in (cameras or {}).items():
+            wxyz, pos = camera_pose(cam)
+            fov = 2.0 * np.arctan2(cam.height / 2.0, cam.K[1, 1])
+            img = None if photos is None else photos.get(view)
+            self.frustums[view] = scene.add_camera_frustum(
+                f"/cameras/{view}", fov=float(fov), aspect=cam.width / cam.height,
+                scale=40.0, thickness=1.5, thickness_units="screen", color=(60, 60, 60),
+                image=img, format="jpeg", jpeg_quality=80, wxyz=wxyz, position=pos)
+            self._camera_labels.append(scene.add_label(
+                f"/cameras/{view}/label", view, position=(0.0, 0.0, 0.0),
+                font_screen_scale=0.8))
+        controller.on_simulation.append(self.update)
+        controller.on_landmarks.append(self.set_landmarks)
+
+    # ------------------------------------------------------------------ drag
+    async def _on_drag(self, event: Any) -> None:
+        """Batched-sphere drag: record the latest request only (never solves here)."""
+        idx = event.instance_index
+        if idx is None or not (0 <= idx < len(self.editable)):
+            return
+        lid = self.editable[idx]
+        end = np.asarray(event.end_position, dtype=np.float64)
+        key = int(event.client_id)
+        if event.phase == "start":
+            centre = self.ctl.landmarks[lid]
+            self._active[key] = (lid, centre - np.asarray(event.start_position, dtype=float))
+            self.ctl.begin_drag(lid)
+            self._highlight(lid)
+            return
+        active = self._active.get(key)
+        if active is None or active[0] != lid:
+            return
+        self.ctl.drag_to(lid, end + active[1])
+        if event.phase == "end":
+            self._active.pop(key, None)
+            self.ctl.end_drag()
+            self._highlight(None)
+
+    def _highlight(self, lid: str | None) -> None:
+        if self.spheres is None:
+            return
+        colors = np.array([LANDMARK_ACTIVE if i == lid else LANDMARK_EDITABLE
+                           for i in self.editable], dtype=np.uint8)
+        self.spheres.batched_colors = colors
+
+    # ------------------------------------------------------------------ updates
+    def set_landmarks(self, lms: Landmarks) -> None:
+        """Move the spheres and labels (cheap; called as soon as landmarks change)."""
+        if self.spheres is not None:
+            self.spheres.batched_positions = np.array([lms[i] for i in self.editable])
+        if self.fixed_spheres is not None:
+            self.fixed_spheres.batched_positions = np.array([lms[i] for i in self.fixed])
+        for i, h in self.labels.items():
+            if h.visible:
+                h.position = lms[i] + np.array([0.0, 1.6, 0.0])
+
+    def update(self, sim: Simulation) -> None:
+        """Push a solved state: nose vertices, curves, ad-landmarks (and the colour map)."""
+        t0 = time.perf_counter()
+        with self._lock:
+            V = sim.V
+            with self.server.atomic():
+                if not self.show_original:
+                    self.nose.vertices = V[self.nose_ids]
+                if np.any(V[self.rest_ids] != self.base.V[self.rest_ids]):
+                    self.rest.vertices = V[self.rest_ids]
+                for name, h in self.curves.items():
+                    c = sim.curves.get(name)
+                    if c is not None and len(c) >= 2:
+                        h.points = curve_segments(c, name.startswith("sill"))
+                if self.outline is not None and not self.show_original:
+                    self.outline.points = self._outline_points(V)
+                if self.ad is not None and len(sim.ad_landmarks) == len(self.base.ad_landmarks):
+                    self.ad.points = np.asarray(sim.ad_landmarks)
+                if self.show_colormap:
+                    now = time.perf_counter()
+                    final = self.ctl.dragging is None
+                    if final or now - self._last_colormap > 0.25:
+                        self._last_colormap = now
+                        self._push_colormap(V)
+                self.set_landmarks(self.ctl.landmarks)
+        self.updates += 1
+        self.last_update_seconds = time.perf_counter() - t0
+
+    def _outline_points(self, V: np.ndarray) -> np.ndarray:
+        """(E, 2, 3) smoothed outline segments of the nose region on the face ``V``."""
+        P = self._outline_S @ V[self._outline_ids]
+        return P[self._outline_loc]
+
+    def _push_colormap(self, V: np.ndarray) -> None:
+        ids = self.nose_ids
+        d = signed_displacement(self.base.V[ids], V[ids], self.normals[ids])
+        self.colormap_limit = nice_limit(float(np.abs(d).max()) if len(d) else 0.0)
+        colors = diverging_colors(d, self.colormap_limit, NOSE if self.highlight else SKIN)
+        self.colormap = self.scene.add_glb("/face/colormap",
+                                           vertex_color_glb(V[ids], self.nose_F, colors),
+                                           visible=self.show_colormap)
+
+    def set_view(self, *, colormap: bool | None = None, original: bool | None = None,
+                 overlay: bool | None = None) -> None:
+        """Before/after toggles: colour map of the displacement, show the original
+        (before) nose instead of the simulated one, translucent overlay of the original."""
+        with self._lock:
+            if colormap is not None:
+                self.show_colormap = colormap
+            if original is not None:
+                self.show_original = original
+            if overlay is not None:
+                self.show_overlay = overlay
+            V = self.base.V if self.show_original else self.ctl.simulation.V
+            self.nose.vertices = V[self.nose_ids]
+            if self.outline is not None:
+                self.outline.points = self._outline_points(V)
+            self.original.visible = self.show_overlay and not self.show_original
+            if self.show_colormap:
+                self._push_colormap(V)
+            elif self.colormap is not None:
+                self.colormap.visible = False
+            self.nose.visible = not self.show_colormap
+
+    def set_visible(self, *, labels: bool | None = None, curves: bool | None = None,
+                    ad_landmarks: bool | None = None, cameras: bool | None = None,
+                    landmarks: bool | None = None, highlight: bool | None = None) -> None:
+        """Show / hide groups of the scene."""
+        if labels is not None:
+            lms = self.ctl.landmarks
+            for i, h in self.labels.items():
+                if labels:
+                    h.position = lms[i] + np.array([0.0, 1.6, 0.0])
+                h.visible = labels
+        if curves is not None:
+            for h in self.curves.values():
+                h.visible = curves
+        if ad_landmarks is not None and self.ad is not None:
+            self.ad.visible = ad_landmarks
+        if cameras is not None:
+            for h in self.frustums.values():
+                h.visible = cameras
+        if landmarks is not None:
+            for h in (self.spheres, self.fixed_spheres):
+                if h is not None:
+                    h.visible = landmarks
+        if highlight is not None:
+            self.highlight = highlight
+            self.nose.color = NOSE if highlight else SKIN
+            if self.outline is not None:
+                self.outline.visible = highlight
+
+    def remove(self) -> None:
+        """Detach from the controller and delete every node."""
+        for lst, cb in ((self.ctl.on_simulation, self.update),
+                        (self.ctl.on_landmarks, self.set_landmarks)):
+            if cb in lst:
+                lst.remove(cb)
+        handles = [self.caps, self.rest, self.nose, self.outline, self.original,
+                   self.colormap, self.spheres, self.fixed_spheres, self.ad,
+                   *self.labels.values(), *self.curves.values(), *self._camera_labels,
+                   *self.frustums.values()]
+        for h in handles:
+            if h is not None:
+                try:
+                    h.remove()
+                except Exception:  # already removed
+                    pass

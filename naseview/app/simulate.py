@@ -1,0 +1,169 @@
+"""The app's solver: landmark drags -> deformed nose, curves, ad-landmarks, measurements.
+
+A pure consumer of stage 3: :class:`NoseEditSolver` builds one
+:class:`naseview.refine.NoseDeformer` on the *reconstructed* face (the baseline), with the
+editable landmarks' vertices as handles, and re-solves it for every drag. The deformation
+is the paper's ARAP + cotangent smoothing; the smoothing acts on the displacement
+(``smooth_displacement=True``) so an unedited nose stays exactly the reconstruction.
+
+Curves and ad-landmarks follow the surface: each of their points is attached to the
+baseline mesh (triangle, barycentric coordinates, offset from the surface) and carried
+along by the deformed triangle. Measurements are
+:func:`naseview.measurements.clinical_measurements` of the moved landmarks and curves.
+
+Example
+-------
+>>> solver = NoseEditSolver(baseline)                          # doctest: +SKIP
+>>> out = solver({**baseline.landmarks, "prn": p + [0, 1.0, 0]})  # doctest: +SKIP
+>>> out.V.shape, out.measurements["nasal_length"]              # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from naseview.app.state import Baseline, Solved
+from naseview.landmarks import LANDMARK_IDS
+
+FIXED_LANDMARKS: tuple[str, ...] = ("g", "mf_l", "mf_r")
+"""Bony reference points outside the nose: shown, never dragged."""
+
+
+@dataclass(frozen=True)
+class SurfaceAttachment:
+    """Points glued to a triangle mesh.
+
+    Attributes:
+        face_ids: (P,) triangle of each point.
+        bary: (P, 3) barycentric coordinates of the closest surface point.
+        offset: (P, 3) point minus its closest surface point (mm), kept as is.
+    """
+
+    face_ids: np.ndarray
+    bary: np.ndarray
+    offset: np.ndarray
+
+
+def attach_points(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> SurfaceAttachment:
+    """Attach points (P, 3) to the closest points of the mesh (V (N, 3), F (M, 3)), mm."""
+    import igl
+
+    P = np.ascontiguousarray(np.asarray(P, dtype=np.float64).reshape(-1, 3))
+    if len(P) == 0:
+        return SurfaceAttachment(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
+    V = np.ascontiguousarray(V, dtype=np.float64)
+    F = np.ascontiguousarray(F, dtype=np.int64)
+    _, fid, C = igl.point_mesh_squared_distance(P, V, F)
+    fid = np.asarray(fid, dtype=np.int64).ravel()
+    C = np.asarray(C, dtype=np.float64).reshape(-1, 3)
+    A, B, Cc = (np.ascontiguousarray(V[F[fid, k]]) for k in range(3))
+    bary = np.asarray(igl.barycentric_coordinates(C, A, B, Cc), dtype=np.float64)
+    return SurfaceAttachment(fid, bary, P - C)
+
+
+def attached_positions(att: SurfaceAttachment, V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """(P, 3) positions of attached points on the mesh ``V`` (same topology ``F``)."""
+    if len(att.face_ids) == 0:
+        return np.zeros((0, 3))
+    T = V[np.asarray(F)[att.face_ids]]                      # (P, 3, 3)
+    return np.einsum("pk,pkd->pd", att.bary, T) + att.offset
+
+
+def landmark_vertices(V: np.ndarray, landmarks: Mapping[str, np.ndarray],
+                      candidates: np.ndarray | None = None,
+                      tol_mm: float = 2.5) -> dict[str, int]:
+    """The mesh vertex of each landmark: the nearest vertex among ``candidates`` (default
+    all), kept only when closer than ``tol_mm`` (mm). Distinct landmarks may not share a
+    vertex (the later one in SPEC order is dropped)."""
+    from scipy.spatial import cKDTree
+
+    ids = np.arange(len(V)) if candidates is None else np.asarray(candidates, np.int64)
+    if len(ids) == 0:
+        return {}
+    tree = cKDTree(np.asarray(V)[ids])
+    out: dict[str, int] = {}
+    used: set[int] = set()
+    order = [k for k in LANDMARK_IDS if k in landmarks] + \
+        [k for k in landmarks if k not in LANDMARK_IDS]
+    for k in order:
+        d, j = tree.query(np.asarray(landmarks[k], dtype=np.float64).reshape(3))
+        v = int(ids[int(j)])
+        if d <= tol_mm and v not in used:
+            out[k] = v
+            used.add(v)
+    return out
+
+
+class NoseEditSolver:
+    """Re-deforms the reconstructed nose when landmarks move (the app's :class:`Solver`).
+
+    Args:
+        baseline: the reconstruction being edited (its ``V`` is the ARAP rest shape).
+        params: :class:`naseview.refine.RefineParams` (ARAP / smoothing fields used; the
+            smoothing is switched to the displacement).
+        fixed: landmark ids never dragged (:data:`FIXED_LANDMARKS`).
+        interactive_iterations: ARAP iterations per solve during a drag (the warm start
+            carries convergence across the drag's solves; 6 stays within 0.05 mm of the
+            converged surface on the ICT nose); a final solve uses
+            ``params.arap_iterations``.
+        tol_mm: a landmark farther than this from every nose vertex is not editable.
+    """
+
+    def __init__(self, baseline: Baseline, params: object | None = None,
+                 fixed: Sequence[str] = FIXED_LANDMARKS, interactive_iterations: int = 6,
+                 tol_mm: float = 2.5) -> None:
+        from naseview.refine import NoseDeformer, RefineParams, grow_by_distance
+
+        p = params if params is not None else RefineParams()
+        assert isinstance(p, RefineParams)
+        self.params = replace(p, smooth_displacement=True)
+        self.baseline = baseline
+        V, F = baseline.V, baseline.F
+        lv = landmark_vertices(V, {k: v for k, v in baseline.landmarks.items()
+                                   if k not in fixed}, baseline.nose_ids, tol_mm)
+        self.editable: list[str] = [k for k in baseline.landmarks if k in lv]
+        self.handle_ids = np.array([lv[k] for k in self.editable], dtype=np.int64)
+        grown = grow_by_distance(V, F, self.handle_ids, self.params.handle_clearance_mm) \
+            if len(self.handle_ids) else np.zeros(0, np.int64)
+        region = np.unique(np.r_[np.asarray(baseline.nose_ids, np.int64), grown])
+        self.deformer = NoseDeformer(V, F, region, self.handle_ids, self.params)
+        self.region_ids = np.asarray(self.deformer.region_vertex_ids, np.int64)
+        self._fast = replace(self.params, arap_iterations=max(1, int(interactive_iterations)),
+                             arap_warn_mm=float("inf"))
+        self._base_handles = V[self.handle_ids].copy()
+        self._base_lms = {k: np.asarray(baseline.landmarks[k], np.float64)
+                          for k in self.editable}
+        names = [k for k, c in baseline.curves.items() if len(c)]
+        pts = [np.asarray(baseline.curves[k], np.float64).reshape(-1, 3) for k in names]
+        self._curve_names = names
+        self._curve_splits = np.cumsum([len(c) for c in pts])[:-1]
+        allp = np.concatenate(pts + [np.asarray(baseline.ad_landmarks).reshape(-1, 3)]) \
+            if pts or len(baseline.ad_landmarks) else np.zeros((0, 3))
+        self._n_curve = int(sum(len(c) for c in pts))
+        self._att = attach_points(allp, V, F)
+
+    def __call__(self, landmarks: Mapping[str, np.ndarray],
+                 interactive: bool = False) -> Solved:
+        """Solve for landmark positions (id -> (3,) mm); see :class:`Solved`."""
+        from naseview.measurements import clinical_measurements
+
+        H = self._base_handles.copy()
+        for i, k in enumerate(self.editable):
+            H[i] += np.asarray(landmarks[k], np.float64) - self._base_lms[k]
+        self.deformer.params = self._fast if interactive else self.params
+        try:
+            rep = self.deformer.solve_report(H, warm_start=True)
+        finally:
+            self.deformer.params = self.params
+        V = rep.V
+        F = self.baseline.F
+        P = attached_positions(self._att, V, F)
+        curves = dict(zip(self._curve_names,
+                          np.split(P[:self._n_curve], self._curve_splits), strict=True)) \
+            if self._curve_names else {}
+        ad = P[self._n_curve:]
+        meas = clinical_measurements(landmarks, curves or None, V, F)
+        return Solved(V, curves, ad, meas, tuple(rep.warnings))
