@@ -363,8 +363,8 @@ def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
         lines.append(f"{row:<16}{_fmt(m['mean']):>9}{ci:>15}{_fmt(p['mean']):>9}")
     lines.append("paper's steps: fit = morphable-model fit (21 landmarks); arap21 / arap76 = + "
                  "ARAP with the 21 landmarks / all ad-landmarks; arap76+smooth = + cotangent "
-                 "smoothing. fit+warp = fit bent smoothly to all ad-landmarks; naseview = "
-                 "the pipeline (naseview.refine.ABLATION_ROWS)")
+                 "smoothing. fit+warp = fit bent smoothly to the ad-landmarks; naseview = "
+                 "the pipeline, -all76 with every sub-landmark (naseview.refine.ABLATION_ROWS)")
     return lines
 
 
