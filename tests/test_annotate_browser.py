@@ -142,9 +142,19 @@ def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
                         skip.click()
                         skips += 1
                     else:
-                        cam = next(iter(server.get_clients().values())).camera
-                        q = screen_xy(cam, page_obj.plane.to_world(truth_xy)[0], box)
-                        page.mouse.click(*q)
+                        # After a photo change the browser may still be moving its camera
+                        # to the new photo: like a user, click again if nothing registered.
+                        for attempt in range(3):
+                            cam = next(iter(server.get_clients().values())).camera
+                            q = screen_xy(cam, page_obj.plane.to_world(truth_xy)[0], box)
+                            page.mouse.click(*q)
+                            try:
+                                wait_for(lambda d=done: page_obj.session.progress()[0] > d,
+                                         4 if attempt < 2 else 10, f"{view} {lid} to register")
+                                break
+                            except AssertionError:
+                                if attempt == 2:
+                                    raise
                         clicks += 1
                     t_start = t_start or time.monotonic()
                     travel += 0.0 if last is None else math.dist(last, q)
