@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from naseview.errors import NaseviewError
+from naseview.geometry import umeyama
 from naseview.landmarks import TABLE1_DISTANCES, TABLE2_DISTANCES
 from naseview.reconstruction import Reconstruction, read_reconstruction
 
@@ -94,19 +95,6 @@ def table2_case(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> di
     return {"distances": d, "mean_error_mm": float(err[ok].mean()) if ok.any() else math.nan}
 
 
-def kabsch(P: np.ndarray, Q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rotation R (3, 3) and translation t (3,) minimising sum |R p + t - q|^2 (no scale).
-
-    Args:
-        P, Q: (N, 3) corresponding points, N >= 3.
-    """
-    pc, qc = P.mean(0), Q.mean(0)
-    u, _, vt = np.linalg.svd((P - pc).T @ (Q - qc))
-    d = np.sign(np.linalg.det(u @ vt)) or 1.0
-    R = (u @ np.diag([1.0, 1.0, d]) @ vt).T
-    return R, qc - R @ pc
-
-
 def landmark_rmse_case(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]
                        ) -> dict[str, Any]:
     """3D landmark errors (mm) after rigid alignment of the prediction onto the truth."""
@@ -115,7 +103,7 @@ def landmark_rmse_case(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]
         return {"rmse_mm": math.nan, "max_mm": math.nan, "n": len(ids), "per_landmark_mm": {}}
     P = np.array([pred[i] for i in ids], dtype=np.float64)
     Q = np.array([truth[i] for i in ids], dtype=np.float64)
-    R, t = kabsch(P, Q)
+    _, R, t = umeyama(P, Q, with_scale=False)
     e = np.linalg.norm(P @ R.T + t - Q, axis=1)
     return {"rmse_mm": float(np.sqrt(np.mean(e**2))), "max_mm": float(e.max()), "n": len(ids),
             "per_landmark_mm": {i: float(x) for i, x in zip(ids, e, strict=True)}}

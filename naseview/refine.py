@@ -47,6 +47,7 @@ from scipy.linalg import blas
 
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
+from naseview.geometry import face_normals, umeyama
 from naseview.landmarks import CURVE_LANDMARKS, LANDMARK_IDS
 
 # ---------------------------------------------------------------------------------------
@@ -273,33 +274,6 @@ class RefineResult:
 # ---------------------------------------------------------------------------------------
 
 
-def umeyama(X: np.ndarray, Y: np.ndarray, with_scale: bool = True,
-            weights: np.ndarray | None = None) -> tuple[float, np.ndarray, np.ndarray]:
-    """Similarity (or rigid) transform minimising sum w_i |s R x_i + t - y_i|^2.
-
-    Args:
-        X, Y: (n, 3) corresponding points, n >= 3 not collinear.
-        with_scale: estimate ``s`` (else 1).
-        weights: optional (n,) non-negative weights.
-    Returns:
-        ``(s, R, t)`` with R (3, 3) a proper rotation, t (3,).
-    """
-    X = np.asarray(X, np.float64)
-    Y = np.asarray(Y, np.float64)
-    w = np.ones(len(X)) if weights is None else np.asarray(weights, np.float64)
-    w = w / w.sum()
-    mx, my = w @ X, w @ Y
-    Xc, Yc = X - mx, Y - my
-    C = (Yc * w[:, None]).T @ Xc
-    U, S, Vt = np.linalg.svd(C)
-    D = np.eye(3)
-    if np.linalg.det(U) * np.linalg.det(Vt) < 0:
-        D[2, 2] = -1.0
-    R = U @ D @ Vt
-    s = float(np.trace(np.diag(S) @ D) / (w @ (Xc ** 2).sum(1))) if with_scale else 1.0
-    return s, R, my - s * R @ mx
-
-
 def vertex_adjacency(F: np.ndarray, n_vertices: int, V: np.ndarray | None = None
                      ) -> sp.csr_matrix:
     """Symmetric vertex adjacency (n, n); entries are edge lengths when ``V`` is given."""
@@ -333,11 +307,6 @@ def grow_by_distance(V: np.ndarray, F: np.ndarray, seeds: np.ndarray, radius_mm:
     grown = np.flatnonzero(np.isfinite(d))
     ring1 = A[seeds].indices
     return np.unique(np.concatenate([grown, ring1, seeds]))
-
-
-def face_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """(m, 3) unnormalised triangle normals (twice the area)."""
-    return np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
 
 
 def submesh(V: np.ndarray, F: np.ndarray, vertex_ids: np.ndarray

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from naseview.camera import Camera
+from naseview.geometry import vertex_normals
 
 DEFAULT_LIGHTS: tuple[tuple[float, float, float], ...] = (
     (-0.45, -0.55, -1.0),   # key light: above and left of the camera
@@ -88,21 +89,6 @@ class RenderResult:
     image: np.ndarray
     depth: np.ndarray
     face_id: np.ndarray
-
-
-def vertex_normals(V: ArrayLike, F: ArrayLike) -> np.ndarray:
-    """(V, 3) unit vertex normals: area-weighted sum of the incident face normals.
-
-    Triangles are counter-clockwise seen from outside, so normals point outwards.
-    """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    N = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(N, F[:, k], fn)
-    n = np.linalg.norm(N, axis=1, keepdims=True)
-    return N / np.maximum(n, 1e-12)
 
 
 def rasterize(V: ArrayLike, F: ArrayLike, camera: Camera, supersample: int = 1,

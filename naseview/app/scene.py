@@ -22,6 +22,7 @@ import numpy as np
 
 from naseview.app.state import EditController, Landmarks, Simulation
 from naseview.camera import Camera
+from naseview.geometry import vertex_normals
 from naseview.landmarks import CURVE_NAMES, LANDMARKS
 
 log = logging.getLogger(__name__)
@@ -153,18 +154,6 @@ def hole_caps(V: np.ndarray, F: np.ndarray, keep_out: np.ndarray | None = None,
     if not out_F:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
     return np.concatenate(out_V), np.concatenate(out_F)
-
-
-def vertex_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """(N, 3) unit area-weighted vertex normals of a mesh (outward for CCW faces)."""
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    N = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(N, F[:, k], fn)
-    norm = np.linalg.norm(N, axis=1, keepdims=True)
-    return N / np.where(norm > 0, norm, 1.0)
 
 
 _RDBU = np.array([[33, 102, 172], [103, 169, 207], [209, 229, 240], [247, 247, 247],

@@ -38,6 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
+from naseview.geometry import vertex_normals
 from naseview.landmarks import CURVE_LANDMARKS, CURVE_NAMES, HELPER_IDS
 
 VALLEY_LENGTH_MM = 4.0
@@ -59,18 +60,6 @@ def vertex_adjacency(n_vertices: int, F: np.ndarray) -> sp.csr_matrix:
     ones = np.ones(len(E))
     A = sp.coo_matrix((ones, (E[:, 0], E[:, 1])), shape=(n_vertices, n_vertices))
     return (A + A.T).tocsr()
-
-
-def vertex_normals(V: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """(V, 3) unit vertex normals, area-weighted face normals (outward for CCW faces)."""
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    fn = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
-    vn = np.zeros_like(V)
-    for k in range(3):
-        np.add.at(vn, F[:, k], fn)
-    norm = np.linalg.norm(vn, axis=1, keepdims=True)
-    return vn / np.where(norm > 0, norm, 1.0)
 
 
 def mean_curvature(V: np.ndarray, F: np.ndarray, smooth_iterations: int = 2) -> np.ndarray:
