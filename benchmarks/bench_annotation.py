@@ -10,12 +10,12 @@ estimate of the pointing time, MT = a + b log2(1 + D / W) per click with a = 0.2
 b = 0.15 s/bit and W = 1 % of the photo width (a click ring). The estimate leaves out
 reading the instructions and looking for the landmark, so it is a lower bound.
 
-Run: ``python benchmarks/bench_annotation.py [N_CASES]`` (about 4 s per case).
+Run: ``python benchmarks/bench_annotation.py [--cases N]`` (about 4 s per case).
 """
 
 from __future__ import annotations
 
-import sys
+import argparse
 import tempfile
 from pathlib import Path
 
@@ -57,7 +57,9 @@ def measure(case_dir: Path, orders: dict[str, dict[str, tuple[str, ...]]]
 
 
 def main() -> None:
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 3
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
+    ap.add_argument("--cases", type=int, default=3, help="synthetic cases to measure")
+    n = ap.parse_args().cases
     model = load_face_model("generic")
     rng = np.random.default_rng(0)
     spec = {v: tuple(i for i in ALL_IDS if i in CLICK_ORDER[v]) for v in CLICK_ORDER}

@@ -16,15 +16,12 @@ Targets (issue 6): median <= 50 ms, p95 <= 100 ms, >= 10 updates per second.
 from __future__ import annotations
 
 import argparse
-import os
 import threading
 import time
 from collections import defaultdict
-from pathlib import Path
 
 import numpy as np
-
-SHARED_ICT = Path(__file__).resolve().parents[2] / "shared" / "data" / "ict-face-model"
+from _shared import use_shared_ict
 
 
 def message_bytes(message: object) -> int:
@@ -43,8 +40,7 @@ def main() -> None:
     ap.add_argument("--interval-ms", type=float, default=50.0)
     ap.add_argument("--amplitude-mm", type=float, default=4.0)
     args = ap.parse_args()
-    if "NASEVIEW_ICT_MODEL" not in os.environ and (SHARED_ICT / "ict_face_light.npz").is_file():
-        os.environ["NASEVIEW_ICT_MODEL"] = str(SHARED_ICT / "ict_face_light.npz")
+    use_shared_ict()
 
     import viser
 

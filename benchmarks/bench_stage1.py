@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _shared import use_shared_ict
 
 from naseview.case import read_case
 from naseview.errors import NaseviewError
@@ -86,6 +87,7 @@ def run_level(dirs: list[Path], repeats: int) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    use_shared_ict()
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--noise", default="0.5,1.5,3", help="click noise levels, px")

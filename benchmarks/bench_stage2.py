@@ -29,6 +29,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _shared import use_shared_ict
 
 from naseview.case import read_case
 from naseview.curves import CurveParams, StepCache, extract_curves
@@ -69,9 +70,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--model", default="ict")
     args = ap.parse_args(argv)
 
-    shared = Path(__file__).resolve().parents[2] / "shared/data/ict-face-model/ict_face_light.npz"
-    if shared.is_file():
-        os.environ.setdefault("NASEVIEW_ICT_MODEL", str(shared))
+    use_shared_ict()
     from naseview.facemodel import load_face_model
     from naseview.sfm import bundle_adjust
     from naseview.synth import synthesize_case

@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _shared import use_shared_ict
 
 from naseview.facemodel import FaceModel, load_face_model
 from naseview.reconstruction import Reconstruction
@@ -135,6 +136,7 @@ def resolve_times(res, rng: np.random.Generator, n: int = 10) -> list[float]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    use_shared_ict()
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--noise-mm", type=float, default=0.3,

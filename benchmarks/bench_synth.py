@@ -17,21 +17,19 @@ Targets: one 1024 px case < 2 s; one 1024 px render of a ~20k-triangle face well
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import tempfile
 import time
 from pathlib import Path
+
+from _shared import use_shared_ict
 
 from naseview.errors import NaseviewError
 from naseview.facemodel import load_face_model
 from naseview.render import render_mesh
 from naseview.synth import _streams, build_scene, sample_identity, sample_rig, synthesize_case
 
-# like tests/conftest.py: use the shared ICT model beside the repository unless chosen
-_SHARED_ICT = Path(__file__).resolve().parents[2] / "shared/data/ict-face-model/ict_face_light.npz"
-if _SHARED_ICT.is_file():
-    os.environ.setdefault("NASEVIEW_ICT_MODEL", str(_SHARED_ICT))
+use_shared_ict()
 
 
 def bench(model_name: str, n: int, size: int) -> dict[str, float | int | str]:

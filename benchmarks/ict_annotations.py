@@ -46,6 +46,7 @@ from pathlib import Path
 
 import numpy as np
 import scipy.sparse.csgraph as cg
+from _shared import use_shared_ict
 from scipy.ndimage import gaussian_filter1d
 from scipy.spatial import cKDTree
 
@@ -206,6 +207,7 @@ def annotate_ict(V: np.ndarray, F: np.ndarray, ao_samples: int = 500) -> dict:
 
 
 def main() -> int:
+    use_shared_ict()
     from naseview.facemodel import store
 
     path = store.find_ict_npz()
