@@ -731,6 +731,10 @@ def serve_command(args: argparse.Namespace) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
     host = str(getattr(args, "host", "127.0.0.1") or "127.0.0.1")
     port = int(getattr(args, "port", 8080))
+    path = getattr(args, "path", None)
+    if path is not None and not Path(path).exists():  # fail before a server starts
+        raise NaseviewError(f"{path}: not found; pass a case directory (SPEC §3), a "
+                            "`naseview reconstruct` output directory or a session file")
     server, app = start_app(getattr(args, "path", None), host, port,
                             getattr(args, "model", None))
     shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
