@@ -170,11 +170,7 @@ def reconstruct(case: Any, model: Any = None, stages: Iterable[int] | str = (1, 
         result.warnings.extend(refined.warnings)
         rec.measurements = _mesh_measurements(rec, refined)
         rec.extra.update(stage3_extra(refined))
-    for stage in stages:
-        if stage != 1 and STAGE_NAMES[stage] not in result.stage_seconds:
-            result.warnings.append(f"stage {stage} ({STAGE_NAMES[stage]}) is not available "
-                                   "in this version; skipped")
-
+    rec.extra["case_dir"] = str(Path(case.root).resolve())  # lets the app find the photos
     rec.extra["warnings"] = list(result.warnings)
     rec.extra["stage_seconds"] = {k: round(v, 4) for k, v in result.stage_seconds.items()}
     return result
