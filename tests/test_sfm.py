@@ -459,6 +459,8 @@ def test_reconstruct_command_writes_reconstruction_json(tmp_path: Path, capsys):
     for key in ("landmark_uncertainty_mm", "residuals_px", "suspect_clicks", "warnings"):
         assert key in rec.extra
     assert set(rec.extra["landmark_uncertainty_mm"]) == set(rec.landmarks)
+    # the output names its case, so `naseview serve OUT` can show the photos
+    assert Path(rec.extra["case_dir"]) == case_dir.resolve()
     assert rec.measurements["n-prn"] == pytest.approx(
         np.linalg.norm(rec.landmarks["n"] - rec.landmarks["prn"]))
     rc = main(["reconstruct", str(case_dir), "-o", str(tmp_path / "o2"), "--stages", "2,3"])
