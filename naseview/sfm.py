@@ -53,6 +53,7 @@ from scipy.optimize import least_squares
 from naseview.camera import Camera, intrinsics, look_at
 from naseview.case import Case
 from naseview.errors import NaseviewError
+from naseview.geometry import umeyama
 from naseview.landmarks import LANDMARK_IDS, LANDMARKS, MIDLINE_IDS, VIEWS
 
 # A generic adult nose in the SPEC frame (mm, origin g), written by hand from textbook
@@ -1237,12 +1238,8 @@ def _aligned_template(landmarks: dict[str, np.ndarray]) -> tuple[dict[str, np.nd
     ids = [i for i in landmarks if i in _TEMPLATE_MM]
     T = np.array([_TEMPLATE_MM[i] for i in ids])
     P = np.array([landmarks[i] for i in ids])
-    tc, pc = T.mean(0), P.mean(0)
-    u, sv, vt = np.linalg.svd((P - pc).T @ (T - tc))
-    d = np.sign(np.linalg.det(u @ vt)) or 1.0
-    R = u @ np.diag([1.0, 1.0, d]) @ vt
-    s = float((sv * [1.0, 1.0, d]).sum() / ((T - tc) ** 2).sum())
-    return {k: s * R @ (np.array(v) - tc) + pc for k, v in _TEMPLATE_MM.items()}, s
+    s, R, t = umeyama(T, P)
+    return {k: s * R @ np.array(v) + t for k, v in _TEMPLATE_MM.items()}, s
 
 
 def _place_single(case: Case, params: SfmParams, single: list[str],
