@@ -20,6 +20,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from browser_helpers import wait_for
+
+from naseview.evaluate import landmark_rmse_case
 
 pytestmark = pytest.mark.browser
 
@@ -41,27 +44,6 @@ def screen_xy(camera, X: np.ndarray, box: dict) -> tuple[int, int]:
     # viser casts the ray through the centre of the CSS pixel under the pointer
     return (math.floor(box["x"] + u * box["width"] / w),
             math.floor(box["y"] + v * box["height"] / h))
-
-
-def wait_for(cond, timeout: float, what: str) -> None:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.02)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
-def rigid_errors(pred: dict, truth: dict) -> dict[str, float]:
-    """Per-landmark distance (mm) after the best rigid alignment of pred onto truth."""
-    ids = [k for k in pred if k in truth]
-    P = np.array([pred[k] for k in ids], float)
-    Q = np.array([truth[k] for k in ids], float)
-    Pc, Qc = P - P.mean(0), Q - Q.mean(0)
-    U, _, Vt = np.linalg.svd(Pc.T @ Qc)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    R = (U @ D @ Vt).T
-    return dict(zip(ids, np.linalg.norm(Pc @ R.T - Qc, axis=1), strict=True))
 
 
 @pytest.fixture(scope="module")
@@ -184,7 +166,7 @@ def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
         assert set(written.views["bottom"].landmarks) >= {"add_l", "add_r"}
         base = app.controller.baseline
         assert set(base.landmarks) == set(truth.landmarks)
-        err = rigid_errors(base.landmarks, truth.landmarks)
+        err = landmark_rmse_case(base.landmarks, truth.landmarks)["per_landmark_mm"]
         worst = max(err, key=err.get)
         print(f"landmarks vs truth (rigid): mean {np.mean(list(err.values())):.3f} mm, "
               f"max {err[worst]:.3f} mm ({worst})")

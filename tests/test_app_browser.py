@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from browser_helpers import wait_for
 
 from naseview.app.serve import NaseviewApp
 
@@ -32,15 +33,6 @@ def project(camera, X: np.ndarray) -> np.ndarray:
     h, w = camera.image_height, camera.image_width
     f = (h / 2.0) / np.tan(camera.fov / 2.0)
     return np.array([w / 2.0 + f * pc[0] / pc[2], h / 2.0 + f * pc[1] / pc[2]])
-
-
-def wait_for(cond, timeout: float, what: str) -> None:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if cond():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 @pytest.fixture(scope="module")

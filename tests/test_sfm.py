@@ -15,6 +15,7 @@ import pytest
 from naseview.camera import Camera, look_at
 from naseview.case import Case, View, read_case, write_case
 from naseview.errors import NaseviewError
+from naseview.evaluate import landmark_rmse_case
 from naseview.landmarks import LANDMARK_IDS, TABLE1_DISTANCES
 from naseview.reconstruction import Reconstruction, write_reconstruction
 from naseview.sfm import SfmParams, anatomical_frame, bundle_adjust
@@ -121,14 +122,8 @@ def write_projected_case(out: Path, seed: int, noise_px: float = 1.5, size: int 
 
 def kabsch_errors(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> np.ndarray:
     """Per-landmark distances (mm) after the best rigid alignment of pred onto truth."""
-    ids = [i for i in pred if i in truth]
-    P = np.array([pred[i] for i in ids])
-    Q = np.array([truth[i] for i in ids])
-    pc, qc = P.mean(0), Q.mean(0)
-    u, _, vt = np.linalg.svd((P - pc).T @ (Q - qc))
-    d = np.sign(np.linalg.det(u @ vt))
-    R = (u @ np.diag([1, 1, d]) @ vt).T
-    return np.linalg.norm((P - pc) @ R.T + qc - Q, axis=1)
+    per = landmark_rmse_case(pred, truth)["per_landmark_mm"]
+    return np.array([per[i] for i in pred if i in truth])
 
 
 def table1_errors(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> np.ndarray:
