@@ -1,8 +1,8 @@
-"""Pointer travel of the guided click order (naseview.annotation) on synthetic cases.
+"""Pointer travel of the guided click order (naseview.intake.session) on synthetic cases.
 
 For each synthetic case (generic face model, noise-free clicks) the landmarks a surgeon
 marks in each photo are visited in three orders: the guided order of
-:data:`naseview.annotation.CLICK_ORDER`, the SPEC table order (g n k r prn c sn mf int al
+:data:`naseview.intake.session.CLICK_ORDER`, the SPEC table order (g n k r prn c sn mf int al
 alp alpp ac md ...) and a random order. The table prints, per order, the number of clicks
 and skips, the pointer travel in photo widths (the distance between consecutive clicks
 in a photo, divided by the photo width; switching photos is free) and a Fitts'-law
@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from naseview.annotation import CLICK_ORDER, VIEW_ORDER
 from naseview.case import read_case
 from naseview.facemodel import load_face_model
+from naseview.intake.session import CLICK_ORDER, VIEW_ORDER
 from naseview.landmarks import ALL_IDS
-from naseview.synth import synthesize_case
+from naseview.testbed.synth import synthesize_case
 
 FITTS_A, FITTS_B, TARGET_WIDTH = 0.2, 0.15, 0.01
 

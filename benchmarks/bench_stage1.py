@@ -1,7 +1,7 @@
 """Stage 1 benchmark: bundle-adjustment accuracy and speed on synthetic ICT cases.
 
-For each click-noise level, N synthetic cases (``naseview.synth``, ICT Face Model, 1024 px,
-the same identities and rigs at every level) go through :func:`naseview.sfm.bundle_adjust`
+For each click-noise level, N synthetic cases (``naseview.testbed.synth``, ICT Face Model, 1024 px,
+the same identities and rigs at every level) go through :func:`naseview.stage1_landmarks.solve`
 and are measured against their truth like ``naseview evaluate``: the paper's Table 1 (mean
 |error| of the 11 landmark distances, %Error), Table 2 (n-prn, prn-sn), the landmark RMSE
 after rigid alignment, how many cases converge, and the median stage-1 time (wall clock
@@ -27,21 +27,21 @@ from _shared import use_shared_ict
 
 from naseview.case import read_case
 from naseview.errors import NaseviewError
-from naseview.evaluate import landmark_rmse_case, table1_case, table2_case
 from naseview.reconstruction import read_reconstruction
-from naseview.sfm import bundle_adjust
+from naseview.stage1_landmarks.solve import bundle_adjust
+from naseview.testbed.evaluate import landmark_rmse_case, table1_case, table2_case
 
 TARGETS = {"t1": 0.35, "pe": 1.5, "t2": 0.5, "ms": 50.0}
 TARGET_NOISE = 1.5
 
 
 def ensure_cases(root: Path, n: int, noise: float, size: int, model_name: str) -> list[Path]:
-    """Case directories ``root/case-000..``; missing ones are rendered by naseview.synth."""
+    """Case directories ``root/case-000..``; missing ones are rendered by naseview.testbed.synth."""
     dirs = [root / f"case-{i:03d}" for i in range(n)]
     missing = [d for d in dirs if not (d / "case.json").is_file()]
     if missing:
         from naseview.facemodel import load_face_model
-        from naseview.synth import synthesize_case
+        from naseview.testbed.synth import synthesize_case
 
         model = load_face_model(model_name)
         print(f"rendering {len(missing)} synthetic case(s) into {root} ...", flush=True)

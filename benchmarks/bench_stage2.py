@@ -1,7 +1,7 @@
 """Stage-2 benchmark: boundary curves on synthetic ICT cases (paper Tables 4-5, issue 4).
 
 For each case: synthesise it (once; kept under ``--dir``), run stage 1
-(:func:`naseview.sfm.bundle_adjust`), then time :func:`naseview.curves.extract_curves`
+(:func:`naseview.stage1_landmarks.solve`), then time :func:`naseview.stage2_curves.extract_curves`
 with the photos already in memory and a cold cache, and measure the boundary MAE and
 Hausdorff distance against ``truth_boundaries.json`` (SPEC §6: reconstructed cameras,
 front-view px-per-mm at al_l-al_r of the true landmarks in the true camera). Also
@@ -32,8 +32,12 @@ import numpy as np
 from _shared import use_shared_ict
 
 from naseview.case import read_case
-from naseview.curves import CurveParams, StepCache, extract_curves
-from naseview.curves.metrics import (
+from naseview.errors import NaseviewError
+from naseview.fileio import read_json
+from naseview.landmarks import CURVE_FAMILIES
+from naseview.reconstruction import read_reconstruction
+from naseview.stage2_curves import CurveParams, StepCache, extract_curves
+from naseview.stage2_curves.metrics import (
     PAPER_TABLE4_MAE,
     boundary_errors,
     format_tables_4_5,
@@ -41,10 +45,6 @@ from naseview.curves.metrics import (
     px_per_mm_from_truth,
     tables_4_5,
 )
-from naseview.errors import NaseviewError
-from naseview.fileio import read_json
-from naseview.landmarks import CURVE_FAMILIES
-from naseview.reconstruction import read_reconstruction
 
 TARGET_MEAN_MAE = 1.0
 TARGET_BOTTOM_MAE = 1.3
@@ -72,8 +72,8 @@ def main(argv: list[str] | None = None) -> int:
 
     use_shared_ict()
     from naseview.facemodel import load_face_model
-    from naseview.sfm import bundle_adjust
-    from naseview.synth import synthesize_case
+    from naseview.stage1_landmarks.solve import bundle_adjust
+    from naseview.testbed.synth import synthesize_case
 
     model = None
     results, seconds, rerun, flags_bad, n_warn = [], [], [], 0, 0

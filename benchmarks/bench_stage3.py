@@ -3,11 +3,11 @@
 Truth: random ICT identities (coefficients ~ N(0, 1)) in the SPEC frame (origin g).
 Input: the true landmarks plus Gaussian noise (``--noise-mm``, like stage 1's output) and
 55 sub-landmarks sampled on the true boundary curves (the mesh curves of the truth,
-``naseview.curves.sublandmarks``) plus noise (``--curve-noise-mm``), as stage 2 gives
+``naseview.stage2_curves.sublandmarks``) plus noise (``--curve-noise-mm``), as stage 2 gives
 them; with ``--synth DIR`` the cases of a ``naseview synth --batch`` folder go through the
 real stages 1-2 instead.
 
-Rows (ablation, issue 5; naseview.refine.ABLATION_ROWS): the paper's steps ``fit`` (the
+Rows (ablation, issue 5; naseview.stage3_mesh.ABLATION_ROWS): the paper's steps ``fit`` (the
 morphable-model fit on the 21 landmarks), ``fit76`` (the fit on all ad-landmarks),
 ``arap21`` / ``arap76`` (+ ARAP with the 21 landmarks / all ad-landmarks),
 ``arap76+smooth`` (+ cotangent smoothing of the positions); naseview's ``fit+warp`` (the
@@ -16,7 +16,7 @@ pipeline: warp, ARAP on the consistent handles, smoothing of the displacement). 
 the ICT base and with the generic base.
 
 Surface error: distance from 20,000 area-uniform samples of the true nose region to the
-reconstructed mesh after rigid landmark alignment (naseview.refine.surface_error).
+reconstructed mesh after rigid landmark alignment (naseview.stage3_mesh.surface_error).
 
     python benchmarks/bench_stage3.py [--cases 30] [--synth DIR]
 
@@ -37,7 +37,7 @@ from _shared import use_shared_ict
 
 from naseview.facemodel import FaceModel, load_face_model
 from naseview.reconstruction import Reconstruction
-from naseview.refine import (
+from naseview.stage3_mesh.solve import (
     ABLATION_ROWS,
     RefineParams,
     nose_surface_samples,
@@ -56,9 +56,9 @@ DEFAULT_ROW = "naseview"
 def true_ad_landmarks(model: FaceModel, Vt: np.ndarray, landmarks: dict[str, np.ndarray]
                       ) -> tuple[np.ndarray, list[dict]]:
     """Ad-landmarks sampled on the truth's mesh curves, tagged as stage 2 tags them."""
-    from naseview.curves.params import DEFAULT_SUB_LANDMARKS
-    from naseview.curves.sublandmarks import ad_landmarks
     from naseview.landmarks import CURVE_LANDMARKS
+    from naseview.stage2_curves.params import DEFAULT_SUB_LANDMARKS
+    from naseview.stage2_curves.sublandmarks import ad_landmarks
 
     curves, anchors = {}, {}
     for name, path in model.curve_vertices.items():

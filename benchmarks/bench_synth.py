@@ -27,7 +27,13 @@ from _shared import use_shared_ict
 from naseview.errors import NaseviewError
 from naseview.facemodel import load_face_model
 from naseview.render import render_mesh
-from naseview.synth import _streams, build_scene, sample_identity, sample_rig, synthesize_case
+from naseview.testbed.synth import (
+    _streams,
+    build_scene,
+    sample_identity,
+    sample_rig,
+    synthesize_case,
+)
 
 use_shared_ict()
 

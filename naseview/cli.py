@@ -16,13 +16,13 @@ from naseview.errors import NaseviewError
 
 
 def _cmd_synth(args: argparse.Namespace) -> int:
-    from naseview.synth import synth_command
+    from naseview.testbed.synth import synth_command
 
     return synth_command(args)
 
 
 def _cmd_sheet(args: argparse.Namespace) -> int:
-    from naseview.sheet import sheet_command
+    from naseview.testbed.sheet import sheet_command
 
     return sheet_command(args)
 
@@ -34,7 +34,7 @@ def _cmd_reconstruct(args: argparse.Namespace) -> int:
 
 
 def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from naseview.evaluate import evaluate_command
+    from naseview.testbed.evaluate import evaluate_command
 
     return evaluate_command(args)
 

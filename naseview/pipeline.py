@@ -2,9 +2,9 @@
 
 :func:`reconstruct` runs the paper's stages in order on a :class:`~naseview.case.Case`:
 
-1. ``landmarks``: 3D landmarks and cameras by bundle adjustment (:mod:`naseview.sfm`);
-2. ``curves``: boundary curves and ad-landmarks (:mod:`naseview.curves`);
-3. ``mesh``: base face fit and ARAP refinement of the nose (:mod:`naseview.refine`).
+1. ``landmarks``: 3D landmarks and cameras by bundle adjustment (:mod:`naseview.stage1_landmarks`);
+2. ``curves``: boundary curves and ad-landmarks (:mod:`naseview.stage2_curves`);
+3. ``mesh``: base face fit and ARAP refinement of the nose (:mod:`naseview.stage3_mesh`).
 
 Each stage is one call below, timed into ``PipelineResult.stage_seconds`` and reported
 through ``progress(stage_name, seconds)``. :func:`write_outputs` writes SPEC §5 files.
@@ -30,7 +30,7 @@ import numpy as np
 
 from naseview.errors import NaseviewError
 from naseview.reconstruction import Reconstruction, write_reconstruction
-from naseview.sfm import SfmParams, SfmResult, bundle_adjust
+from naseview.stage1_landmarks.solve import SfmParams, SfmResult, bundle_adjust
 
 STAGE_NAMES: dict[int, str] = {1: "landmarks", 2: "curves", 3: "mesh"}
 """Stage number -> name used in ``stage_seconds`` and progress lines."""
@@ -43,9 +43,9 @@ class PipelineParams:
     """Tunables of every stage (``None``: that stage's defaults).
 
     Attributes:
-        sfm: stage 1, :class:`naseview.sfm.SfmParams`.
-        curves: stage 2, ``naseview.curves.CurveParams``.
-        refine: stage 3, ``naseview.refine.RefineParams``.
+        sfm: stage 1, :class:`naseview.stage1_landmarks.SfmParams`.
+        curves: stage 2, ``naseview.stage2_curves.CurveParams``.
+        refine: stage 3, ``naseview.stage3_mesh.RefineParams``.
     """
 
     sfm: SfmParams = field(default_factory=SfmParams)
@@ -178,17 +178,17 @@ def reconstruct(case: Any, model: Any = None, stages: Iterable[int] | str = (1, 
 
 def _stage2(case: Any, sfm: SfmResult, params: Any) -> Any:
     """Stage 2 on the photos of ``case`` with the stage-1 cameras and landmarks:
-    :func:`naseview.curves.extract_curves` (``params``: a CurveParams or None)."""
-    from naseview.curves import extract_curves
+    :func:`naseview.stage2_curves.extract_curves` (``params``: a CurveParams or None)."""
+    from naseview.stage2_curves import extract_curves
 
     return extract_curves(case, None, sfm, params)
 
 
 def _stage3(rec: Reconstruction, model: Any, params: Any) -> Any:
-    """Stage 3 on the landmarks (and ad-landmarks) of ``rec``: :func:`naseview.refine.refine`
+    """Stage 3 on the landmarks (and ad-landmarks) of ``rec``: :func:`naseview.stage3_mesh.solve`
     with ``model`` a FaceModel, a model name / path or None (default model)."""
     from naseview.facemodel import FaceModel, load_face_model
-    from naseview.refine import refine
+    from naseview.stage3_mesh.solve import refine
 
     fm = model if isinstance(model, FaceModel) else load_face_model(model)
     return refine(fm, rec, params)
@@ -239,7 +239,7 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
     written = [write_reconstruction(result.reconstruction, out / "reconstruction.json")]
     if result.face_vertices is not None and result.faces is not None:
         from naseview.meshio import export_mesh
-        from naseview.refine import submesh
+        from naseview.stage3_mesh.solve import submesh
 
         V, F = np.asarray(result.face_vertices), np.asarray(result.faces)
         Vn, Fn = submesh(V, F, np.asarray(result.nose_vertex_ids))[:2]

@@ -3,7 +3,7 @@
 Renders triangle meshes through a :class:`~naseview.camera.Camera` (SPEC §4: ``x_cam = R X
 + t``, pixel ``[0, 0]`` is the centre of the top-left pixel) into a BGR photo, a depth map
 (mm along the optical axis) and a triangle-id map. Used to make synthetic photos with
-exact ground truth (:mod:`naseview.synth`) and to test visibility.
+exact ground truth (:mod:`naseview.testbed.synth`) and to test visibility.
 
 How it works: for every row of every triangle's screen box the three edge functions give
 the exact pixel span inside the triangle (vectorised over all rows); the spans are
@@ -33,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from naseview.camera import Camera
-from naseview.geometry import vertex_normals
+from naseview.geometry.mesh import vertex_normals
 
 DEFAULT_LIGHTS: tuple[tuple[float, float, float], ...] = (
     (-0.45, -0.55, -1.0),   # key light: above and left of the camera

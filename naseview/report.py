@@ -514,7 +514,7 @@ def report_data_from_session(path: str | os.PathLike[str], case_dir: Any = None
     """A :class:`ReportData` from a ``naseview.session/1`` file (before = its baseline,
     after = its saved simulation when it has one); photos from ``case_dir`` or the case
     directory the session names."""
-    from naseview.app.state import load_session
+    from naseview.editing.state import load_session
 
     s = load_session(path)
     b = s.baseline
@@ -532,7 +532,7 @@ def report_data_from_session(path: str | os.PathLike[str], case_dir: Any = None
 def report_data_from_output(out_dir: str | os.PathLike[str], case_dir: Any = None
                             ) -> ReportData:
     """A "before only" :class:`ReportData` from ``naseview reconstruct`` output."""
-    from naseview.app.serve import baseline_from_output_dir
+    from naseview.editing.baseline import baseline_from_output_dir
 
     out = Path(out_dir)
     b = baseline_from_output_dir(out)

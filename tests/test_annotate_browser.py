@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 from browser_helpers import wait_for
 
-from naseview.evaluate import landmark_rmse_case
+from naseview.testbed.evaluate import landmark_rmse_case
 
 pytestmark = pytest.mark.browser
 
@@ -49,7 +49,7 @@ def screen_xy(camera, X: np.ndarray, box: dict) -> tuple[int, int]:
 @pytest.fixture(scope="module")
 def synth_case(tmp_path_factory) -> Path:
     from naseview.facemodel import load_face_model
-    from naseview.synth import synthesize_case
+    from naseview.testbed.synth import synthesize_case
 
     out = tmp_path_factory.mktemp("synth") / "case"
     synthesize_case(out, load_face_model("generic"), seed=1, noise_px=0.0)

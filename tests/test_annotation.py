@@ -14,7 +14,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from naseview.annotation import (
+from naseview.camera import Camera, look_at
+from naseview.case import read_case
+from naseview.errors import NaseviewError
+from naseview.intake.session import (
     CLICK_ORDER,
     MAX_SIDE_PX,
     VIEW_ORDER,
@@ -23,9 +26,6 @@ from naseview.annotation import (
     describe,
     list_in_progress,
 )
-from naseview.camera import Camera, look_at
-from naseview.case import read_case
-from naseview.errors import NaseviewError
 from naseview.landmarks import ALL_IDS, CURVE_LANDMARKS, VIEWS
 
 # --------------------------------------------------------------------------- helpers

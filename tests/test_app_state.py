@@ -2,7 +2,7 @@
 
 The face is the ICT mean face (read from ``NASEVIEW_ICT_MODEL``, never copied) with its
 annotated landmarks, nose region and curves; the solver is either the real stage 3 deformer
-(:class:`naseview.app.simulate.NoseEditSolver`) or, where a test needs a controllable
+(:class:`naseview.editing.solver.NoseEditSolver`) or, where a test needs a controllable
 solver (slow, failing), a simple Gaussian displacement field defined here.
 """
 
@@ -17,7 +17,7 @@ from collections.abc import Mapping
 import numpy as np
 import pytest
 
-from naseview.app.state import (
+from naseview.editing.state import (
     MIRROR,
     Baseline,
     EditController,
@@ -31,7 +31,7 @@ from naseview.measurements import clinical_measurements
 
 def ict_baseline() -> Baseline:
     """The ICT mean face as a reconstruction in the SPEC frame (origin at g)."""
-    from naseview.app.serve import baseline_from_face_model
+    from naseview.editing.baseline import baseline_from_face_model
     from naseview.facemodel import load_face_model
 
     assert os.environ.get("NASEVIEW_ICT_MODEL"), "conftest sets NASEVIEW_ICT_MODEL"
@@ -77,7 +77,7 @@ def baseline() -> Baseline:
 
 @pytest.fixture(scope="module")
 def real_solver_factory(baseline: Baseline):
-    from naseview.app.simulate import NoseEditSolver
+    from naseview.editing.solver import NoseEditSolver
 
     return lambda: NoseEditSolver(baseline)
 
@@ -125,7 +125,7 @@ def test_drag_moves_nose_and_undo_redo_restore_exactly(baseline, real_solver_fac
 
 
 def ctl_region(baseline: Baseline) -> np.ndarray:
-    from naseview.app.simulate import NoseEditSolver
+    from naseview.editing.solver import NoseEditSolver
 
     return NoseEditSolver(baseline).region_ids
 
@@ -419,7 +419,7 @@ def reconstruction_dir(tmp_path_factory):
     from naseview.facemodel import load_face_model
     from naseview.meshio import read_mesh
     from naseview.reconstruction import read_reconstruction, write_reconstruction
-    from naseview.synth import synthesize_case
+    from naseview.testbed.synth import synthesize_case
 
     root = tmp_path_factory.mktemp("app")
     model = load_face_model("ict")

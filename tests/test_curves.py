@@ -10,16 +10,16 @@ import numpy as np
 import pytest
 
 from naseview.camera import look_at
-from naseview.curves import CurveParams, StepCache
-from naseview.curves.edges import edge_cost, edge_map, least_cost_path, smooth_polyline
-from naseview.curves.fallback import catmull_rom_segments
-from naseview.curves.lift import closest_points_between_lines, lift_to_lines, lift_to_plane
-from naseview.curves.mask import estimate_background, foreground_mask, profile_contour
-from naseview.curves.metrics import boundary_errors, hausdorff_polylines, point_to_polyline
-from naseview.curves.nostrils import nostril_contour, sill_plane
-from naseview.curves.side import arc_through, circle_through_points, side_tmp_point
-from naseview.curves.sublandmarks import ad_landmarks, sample_curve
 from naseview.landmarks import CURVE_NAMES, LANDMARK_IDS
+from naseview.stage2_curves import CurveParams, StepCache
+from naseview.stage2_curves.edges import edge_cost, edge_map, least_cost_path, smooth_polyline
+from naseview.stage2_curves.fallback import catmull_rom_segments
+from naseview.stage2_curves.lift import closest_points_between_lines, lift_to_lines, lift_to_plane
+from naseview.stage2_curves.mask import estimate_background, foreground_mask, profile_contour
+from naseview.stage2_curves.metrics import boundary_errors, hausdorff_polylines, point_to_polyline
+from naseview.stage2_curves.nostrils import nostril_contour, sill_plane
+from naseview.stage2_curves.side import arc_through, circle_through_points, side_tmp_point
+from naseview.stage2_curves.sublandmarks import ad_landmarks, sample_curve
 
 # ----------------------------------------------------------------- lifting (eq. 4-10)
 
@@ -249,8 +249,8 @@ def synth_case(tmp_path_factory: pytest.TempPathFactory, ict_dir: Path) -> Synth
     """One rendered ICT case (512 px), its stage-1 result and its photos."""
     from naseview.case import read_case
     from naseview.facemodel import load_face_model
-    from naseview.sfm import bundle_adjust
-    from naseview.synth import synthesize_case
+    from naseview.stage1_landmarks.solve import bundle_adjust
+    from naseview.testbed.synth import synthesize_case
 
     d = synthesize_case(tmp_path_factory.mktemp("s2") / "case", load_face_model("ict"),
                         seed=3, size=512).parent
@@ -259,9 +259,9 @@ def synth_case(tmp_path_factory: pytest.TempPathFactory, ict_dir: Path) -> Synth
 
 
 def _errors(d: Path, res: Any, sfm: Any) -> dict[str, Any]:
-    from naseview.curves.metrics import boundary_errors, px_per_mm_from_truth
     from naseview.fileio import read_json
     from naseview.reconstruction import read_reconstruction
+    from naseview.stage2_curves.metrics import boundary_errors, px_per_mm_from_truth
 
     truth = read_reconstruction(d / "truth.json")
     ppm = px_per_mm_from_truth(truth.landmarks, truth.cameras["front"])
@@ -269,7 +269,7 @@ def _errors(d: Path, res: Any, sfm: Any) -> dict[str, Any]:
 
 
 def test_synthetic_case_curves_close_to_truth(synth_case: SynthCase) -> None:
-    from naseview.curves import extract_curves
+    from naseview.stage2_curves import extract_curves
 
     d, case, sfm, images = synth_case
     res = extract_curves(case, images, sfm)
@@ -295,7 +295,7 @@ def test_synthetic_case_curves_close_to_truth(synth_case: SynthCase) -> None:
 
 
 def test_ad_landmarks_of_a_case(synth_case: SynthCase) -> None:
-    from naseview.curves import extract_curves
+    from naseview.stage2_curves import extract_curves
 
     _, case, sfm, images = synth_case
     res = extract_curves(case, images, sfm)
@@ -308,7 +308,7 @@ def test_ad_landmarks_of_a_case(synth_case: SynthCase) -> None:
 
 
 def test_parameter_change_reuses_cached_steps(synth_case: SynthCase) -> None:
-    from naseview.curves import extract_curves
+    from naseview.stage2_curves import extract_curves
 
     _, case, sfm, images = synth_case
     cache = StepCache()
@@ -326,7 +326,7 @@ def test_parameter_change_reuses_cached_steps(synth_case: SynthCase) -> None:
 
 
 def test_non_uniform_border_warns_and_falls_back(synth_case: SynthCase) -> None:
-    from naseview.curves import extract_curves
+    from naseview.stage2_curves import extract_curves
 
     _, case, sfm, images = synth_case
     rng = np.random.default_rng(0)
@@ -349,8 +349,8 @@ def test_non_uniform_border_warns_and_falls_back(synth_case: SynthCase) -> None:
 
 
 def test_missing_edges_and_nostrils_warn_and_fall_back(synth_case: SynthCase) -> None:
-    from naseview.curves import extract_curves
-    from naseview.curves.extract import anchors_2d
+    from naseview.stage2_curves import extract_curves
+    from naseview.stage2_curves.extract import anchors_2d
 
     _, case, sfm, images = synth_case
     front = images["front"].copy()

@@ -13,7 +13,8 @@ from test_sfm import BASE_NOSE, write_projected_case
 
 from naseview.cli import main
 from naseview.errors import NaseviewError
-from naseview.evaluate import (
+from naseview.landmarks import TABLE1_DISTANCES
+from naseview.testbed.evaluate import (
     evaluate_cases,
     format_report,
     landmark_rmse_case,
@@ -21,7 +22,6 @@ from naseview.evaluate import (
     table1_case,
     table2_case,
 )
-from naseview.landmarks import TABLE1_DISTANCES
 
 TABLE1_KEYS = [f"{a}-{b}" for a, b in TABLE1_DISTANCES]
 

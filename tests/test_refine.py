@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from naseview.errors import NaseviewError
-from naseview.refine import (
+from naseview.stage3_mesh.solve import (
     ABLATION_ROWS,
     NoseDeformer,
     RefineParams,
@@ -206,9 +206,9 @@ def test_fit_needs_landmarks_and_warns_outside_the_model(ict_model) -> None:
 
 def _true_ad_landmarks(m, Vt, lm):
     """Sub-landmarks sampled on the truth's own mesh curves, tagged like stage 2."""
-    from naseview.curves.params import DEFAULT_SUB_LANDMARKS
-    from naseview.curves.sublandmarks import ad_landmarks
     from naseview.landmarks import CURVE_LANDMARKS
+    from naseview.stage2_curves.params import DEFAULT_SUB_LANDMARKS
+    from naseview.stage2_curves.sublandmarks import ad_landmarks
 
     curves, anchors = {}, {}
     for name, path in m.curve_vertices.items():

@@ -148,7 +148,7 @@ def test_before_only_report_and_bad_name(data, tmp_path: Path):
 
 
 def test_report_command_from_a_session_file(data, tmp_path: Path):
-    from naseview.app.state import Baseline, EditController, Solved, save_session
+    from naseview.editing.state import Baseline, EditController, Solved, save_session
 
     V, F, nose, lms = height_field_face()
     base = Baseline(V, F, nose, lms, measurements=clinical_measurements(lms))

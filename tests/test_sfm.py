@@ -15,10 +15,10 @@ import pytest
 from naseview.camera import Camera, look_at
 from naseview.case import Case, View, read_case, write_case
 from naseview.errors import NaseviewError
-from naseview.evaluate import landmark_rmse_case
 from naseview.landmarks import LANDMARK_IDS, TABLE1_DISTANCES
 from naseview.reconstruction import Reconstruction, write_reconstruction
-from naseview.sfm import SfmParams, anatomical_frame, bundle_adjust
+from naseview.stage1_landmarks.solve import SfmParams, anatomical_frame, bundle_adjust
+from naseview.testbed.evaluate import landmark_rmse_case
 
 # A plausible adult nose (mm, SPEC frame, origin g); ground truth is drawn around it.
 BASE_NOSE = {
@@ -210,7 +210,7 @@ def test_known_focal_length_is_kept():
 def test_analytic_jacobian_matches_finite_differences():
     from scipy.optimize._numdiff import approx_derivative
 
-    from naseview import sfm
+    from naseview.stage1_landmarks import solve as sfm
 
     case, _ = make_case(3)
     case.views["bottom"].camera = {"focal_px": 2500.0}  # a photo with known intrinsics

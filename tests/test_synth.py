@@ -17,7 +17,7 @@ from naseview.landmarks import HELPER_IDS, LANDMARK_IDS, VIEWS
 from naseview.meshio import read_mesh
 from naseview.reconstruction import read_reconstruction
 from naseview.render import rasterize, visible_points
-from naseview.synth import (
+from naseview.testbed.synth import (
     CONTOUR_RADIUS_PX,
     GENERIC_EYES_MM,
     TRUTH_CURVE_VIEWS,

@@ -1,8 +1,8 @@
 """The browser app (``naseview serve``): inspect a reconstruction and simulate changes live.
 
-- :mod:`naseview.app.state` — editor state and controller, no viser (undo / redo,
+- :mod:`naseview.editing.state` — editor state and controller, no viser (undo / redo,
   symmetric mode, one solve worker, session files);
-- :mod:`naseview.app.simulate` — the solver: landmark drags -> stage 3 deformation;
+- :mod:`naseview.editing.solver` — the solver: landmark drags -> stage 3 deformation;
 - :mod:`naseview.app.scene` — the shared 3D scene;
 - :mod:`naseview.app.panels` — the control panel;
 - :mod:`naseview.app.export` — downloadable files;

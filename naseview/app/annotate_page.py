@@ -6,7 +6,7 @@ page places; a click anywhere in the view is a ray (``scene.on_click``) that is
 intersected with the photo plane to give pixels (:class:`PhotoPlane`). The left panel
 names the next landmark with a one-line description and a small diagram of where it is
 (a render of the face model with the point marked, cached per landmark); a click places
-it and the next one follows (:mod:`naseview.annotation` holds the order and every rule).
+it and the next one follows (:mod:`naseview.intake.session` holds the order and every rule).
 Placed clicks are green rings that can be dragged; Undo and "Not visible" (skip) are one
 button each. Once enough clicks exist, the reprojection of the already reconstructed
 landmarks (quick stage 1 in a background worker) shows as a magenta ring where the
@@ -38,7 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from naseview.annotation import (
+from naseview.errors import NaseviewError
+from naseview.intake.session import (
     CLICK_ORDER,
     VIEW_ORDER,
     VIEW_TITLES,
@@ -49,7 +50,6 @@ from naseview.annotation import (
     describe,
     list_in_progress,
 )
-from naseview.errors import NaseviewError
 from naseview.landmarks import LANDMARKS, VIEWS
 
 log = logging.getLogger(__name__)

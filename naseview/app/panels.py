@@ -24,7 +24,7 @@ log = logging.getLogger(__name__)
 
 RESIDUAL_FLAG_PX = 5.0
 """A click is flagged when its residual exceeds this (px) and 4x the median residual
-(the rule of stage 1's suspect clicks, :class:`naseview.sfm.SfmParams`)."""
+(the rule of stage 1's suspect clicks, :class:`naseview.stage1_landmarks.SfmParams`)."""
 
 
 def flag_threshold(residuals: Mapping[str, Mapping[str, float]],
@@ -40,7 +40,7 @@ STAGE2_FIELDS: tuple[tuple[str, str], ...] = (
     ("closing_px", "nostril closing (px)"), ("path_min_edge", "min. edge strength"),
     ("corridor_frac", "edge corridor frac."), ("lift_weight", "lift weight"),
 )
-"""Stage 2 (:class:`naseview.curves.params.CurveParams`) fields in the parameter panel."""
+"""Stage 2 (:class:`naseview.stage2_curves.params.CurveParams`) fields in the parameter panel."""
 
 STAGE3_FIELDS: tuple[tuple[str, str], ...] = (
     ("arap_iterations", "ARAP iterations"), ("smooth_iterations", "smoothing iterations"),
@@ -49,7 +49,7 @@ STAGE3_FIELDS: tuple[tuple[str, str], ...] = (
     ("max_handle_displacement_mm", "max. handle move (mm)"),
     ("fit_sigma_mm", "fit landmark sigma (mm)"),
 )
-"""Stage 3 (:class:`naseview.refine.RefineParams`) fields in the parameter panel."""
+"""Stage 3 (:class:`naseview.stage3_mesh.RefineParams`) fields in the parameter panel."""
 
 
 # ---------------------------------------------------------------------------- pure helpers

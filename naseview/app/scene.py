@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from naseview.app.state import EditController, Landmarks, Simulation
 from naseview.camera import Camera
-from naseview.geometry import vertex_normals
+from naseview.editing.state import EditController, Landmarks, Simulation
+from naseview.geometry.mesh import vertex_normals
 from naseview.landmarks import CURVE_NAMES, LANDMARKS
 
 log = logging.getLogger(__name__)

@@ -38,7 +38,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
-from naseview.geometry import vertex_normals
+from naseview.geometry.mesh import vertex_normals
 from naseview.landmarks import CURVE_LANDMARKS, CURVE_NAMES, HELPER_IDS
 
 VALLEY_LENGTH_MM = 4.0

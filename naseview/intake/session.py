@@ -15,7 +15,7 @@ case directory (SPEC §3), written so that it can be tested without a browser:
   in-progress folder (photos are written once, at intake); :meth:`AnnotationSession.open`
   resumes it after a reload or a server restart, undo history included.
 - **Guidance** (:func:`quick_stage1`): once at least 6 landmarks are clicked in at least
-  two photos, a quick stage 1 (:func:`naseview.sfm.bundle_adjust`) reconstructs what is
+  two photos, a quick stage 1 (:func:`naseview.stage1_landmarks.solve`) reconstructs what is
   there and the 3D landmarks are reprojected into each photo as hints for the remaining
   clicks (a photo with only 4-5 clicks is placed by PnP resection on those 3D points).
 - **Output**: :meth:`AnnotationSession.write_case` writes the SPEC §3 case directory with
@@ -78,7 +78,7 @@ from naseview.landmarks import ALL_IDS, HELPER_IDS, LANDMARK_IDS, LANDMARKS, VIE
 
 log = logging.getLogger(__name__)
 
-ANNOTATION_FORMAT = "naseview.annotation/1"
+ANNOTATION_FORMAT = "naseview.intake.session/1"
 ANNOTATION_FILE = "annotation.json"
 
 MAX_SIDE_PX = 2048
@@ -365,7 +365,7 @@ def quick_stage1(clicks: dict[str, dict[str, np.ndarray]],
     """Reconstruct what the clicks so far allow, for hints (never raises).
 
     Photos with at least :data:`HINT_MIN_CLICKS` landmark clicks go into
-    :func:`naseview.sfm.bundle_adjust` (needs two of them, ``g`` in two, a left/right
+    :func:`naseview.stage1_landmarks.solve` (needs two of them, ``g`` in two, a left/right
     pair in two); any other photo with at least :data:`HINT_MIN_RESECTION` clicks of
     reconstructed landmarks is placed by :func:`resect_camera` with the median focal
     length (relative to the photo size) of the adjusted photos.
@@ -378,7 +378,7 @@ def quick_stage1(clicks: dict[str, dict[str, np.ndarray]],
     Returns:
         :class:`Guidance`; without hints its ``message`` says what is still missing.
     """
-    from naseview.sfm import bundle_adjust
+    from naseview.stage1_landmarks.solve import bundle_adjust
 
     lm_clicks = {v: {i: np.asarray(p, float) for i, p in c.items() if i in LANDMARK_IDS}
                  for v, c in clicks.items() if v in sizes}

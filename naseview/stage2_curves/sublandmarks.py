@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from naseview.curves.edges import cumulative_length
 from naseview.landmarks import CURVE_NAMES, LANDMARK_IDS, LANDMARKS
+from naseview.stage2_curves.edges import cumulative_length
 
 
 def _share(lengths: np.ndarray, count: int) -> np.ndarray:

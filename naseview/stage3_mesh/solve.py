@@ -47,7 +47,7 @@ from scipy.linalg import blas
 
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
-from naseview.geometry import face_normals, umeyama
+from naseview.geometry.mesh import face_normals, umeyama
 from naseview.landmarks import CURVE_LANDMARKS, LANDMARK_IDS
 
 # ---------------------------------------------------------------------------------------
@@ -413,7 +413,7 @@ def _sub_rows(model: FaceModel, ad_landmarks: np.ndarray | None,
               curves: Sequence[str] | None = None) -> tuple[list[_SubRow], list[str]]:
     """Stage 2's sub-landmarks as rows (the 21 landmarks among the ad-landmarks skipped).
 
-    Tags (:mod:`naseview.curves.sublandmarks`): ``{"id", "curve", "t", "between", "s"}``
+    Tags (:mod:`naseview.stage2_curves.sublandmarks`): ``{"id", "curve", "t", "between", "s"}``
     with ``t`` the fraction along the whole curve, ``between`` the segment's two landmarks
     and ``s`` the fraction inside it. The segment form is used when present. Only curves
     in ``curves`` are used (``None``: all).

@@ -53,7 +53,7 @@ from scipy.optimize import least_squares
 from naseview.camera import Camera, intrinsics, look_at
 from naseview.case import Case
 from naseview.errors import NaseviewError
-from naseview.geometry import umeyama
+from naseview.geometry.mesh import umeyama
 from naseview.landmarks import LANDMARK_IDS, LANDMARKS, MIDLINE_IDS, VIEWS
 
 # A generic adult nose in the SPEC frame (mm, origin g), written by hand from textbook

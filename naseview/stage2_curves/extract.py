@@ -33,7 +33,7 @@ paper's behaviour is one setting away):
 Example
 -------
 >>> from naseview.case import read_case
->>> from naseview.sfm import bundle_adjust
+>>> from naseview.stage1_landmarks.solve import bundle_adjust
 >>> case = read_case("case_dir")                              # doctest: +SKIP
 >>> res = extract_curves(case, None, bundle_adjust(case))     # doctest: +SKIP
 >>> res.ad_landmarks.shape, res.flags["mid"]                  # doctest: +SKIP
@@ -53,15 +53,6 @@ import numpy as np
 
 from naseview.camera import Camera
 from naseview.case import Case
-from naseview.curves import edges as E
-from naseview.curves import mask as M
-from naseview.curves import nostrils as N
-from naseview.curves.cache import StepCache, digest
-from naseview.curves.fallback import catmull_rom_segments, sill_ellipse
-from naseview.curves.lift import lift_to_lines, lift_to_plane
-from naseview.curves.params import CurveParams
-from naseview.curves.side import side_curve_2d
-from naseview.curves.sublandmarks import ad_landmarks
 from naseview.landmarks import (
     ALL_IDS,
     CURVE_LANDMARKS,
@@ -70,6 +61,15 @@ from naseview.landmarks import (
     LANDMARK_IDS,
     mirror_id,
 )
+from naseview.stage2_curves import edges as E
+from naseview.stage2_curves import mask as M
+from naseview.stage2_curves import nostrils as N
+from naseview.stage2_curves.cache import StepCache, digest
+from naseview.stage2_curves.fallback import catmull_rom_segments, sill_ellipse
+from naseview.stage2_curves.lift import lift_to_lines, lift_to_plane
+from naseview.stage2_curves.params import CurveParams
+from naseview.stage2_curves.side import side_curve_2d
+from naseview.stage2_curves.sublandmarks import ad_landmarks
 
 CURVE_VIEWS: dict[str, tuple[str, ...]] = {
     "mid": ("left", "right"), "bottom": ("bottom",), "ala_l": ("front",),

@@ -1,7 +1,7 @@
 """The app's solver: landmark drags -> deformed nose, curves, ad-landmarks, measurements.
 
 A pure consumer of stage 3: :class:`NoseEditSolver` builds one
-:class:`naseview.refine.NoseDeformer` on the *reconstructed* face (the baseline), with the
+:class:`naseview.stage3_mesh.NoseDeformer` on the *reconstructed* face (the baseline), with the
 editable landmarks' vertices as handles, and re-solves it for every drag. The deformation
 is the paper's ARAP + cotangent smoothing; the smoothing acts on the displacement
 (``smooth_displacement=True``) so an unedited nose stays exactly the reconstruction.
@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from naseview.app.state import Baseline, Solved
+from naseview.editing.state import Baseline, Solved
 from naseview.landmarks import LANDMARK_IDS
 
 FIXED_LANDMARKS: tuple[str, ...] = ("g", "mf_l", "mf_r")
@@ -102,7 +102,7 @@ class NoseEditSolver:
 
     Args:
         baseline: the reconstruction being edited (its ``V`` is the ARAP rest shape).
-        params: :class:`naseview.refine.RefineParams` (ARAP / smoothing fields used; the
+        params: :class:`naseview.stage3_mesh.RefineParams` (ARAP / smoothing fields used; the
             smoothing is switched to the displacement).
         fixed: landmark ids never dragged (:data:`FIXED_LANDMARKS`).
         interactive_iterations: ARAP iterations per solve during a drag (the warm start
@@ -115,7 +115,7 @@ class NoseEditSolver:
     def __init__(self, baseline: Baseline, params: object | None = None,
                  fixed: Sequence[str] = FIXED_LANDMARKS, interactive_iterations: int = 6,
                  tol_mm: float = 2.5) -> None:
-        from naseview.refine import NoseDeformer, RefineParams, grow_by_distance
+        from naseview.stage3_mesh.solve import NoseDeformer, RefineParams, grow_by_distance
 
         p = params if params is not None else RefineParams()
         assert isinstance(p, RefineParams)

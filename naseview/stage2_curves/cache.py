@@ -1,7 +1,7 @@
 """A small content-keyed cache so stage 2 re-runs only the steps whose inputs changed.
 
 Each step is keyed on a digest of exactly what it reads (the photo's pixels, the
-anchors, the cameras and the :class:`~naseview.curves.params.CurveParams` fields it uses).
+anchors, the cameras and the :class:`~naseview.stage2_curves.params.CurveParams` fields it uses).
 Changing, say, ``closing_px`` changes only the nostril steps' keys; masks, edge maps and
 paths are served from the cache.
 

@@ -1,6 +1,6 @@
 """Every tunable of stage 2 (paper section 3.3) in one dataclass.
 
-The app binds sliders to these fields; :func:`naseview.curves.extract.extract_curves`
+The app binds sliders to these fields; :func:`naseview.stage2_curves.extract.extract_curves`
 caches each step on the fields it reads, so changing one field re-runs only the steps
 that depend on it.
 
@@ -87,7 +87,7 @@ class CurveParams:
         nostril_search_frac: a nostril must come within this fraction of the al''-al''
             distance of its al'' landmark.
 
-    Side-curve (eq. 15-17), see :mod:`naseview.curves.side`:
+    Side-curve (eq. 15-17), see :mod:`naseview.stage2_curves.side`:
 
     Attributes:
         side_w_ratio: w2 / w1 (paper: 1), horizontal split of int -> tmp -> mf.

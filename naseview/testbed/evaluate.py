@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from naseview.errors import NaseviewError
-from naseview.geometry import umeyama
+from naseview.geometry.mesh import umeyama
 from naseview.landmarks import TABLE1_DISTANCES, TABLE2_DISTANCES
 from naseview.reconstruction import Reconstruction, read_reconstruction
 
@@ -257,10 +257,10 @@ def boundary_case(run: CaseRun) -> dict[str, Any]:
 
     The reconstructed curves are projected with the reconstructed cameras into the photos
     of ``truth_boundaries.json``; px -> mm with the true front-view scale at al_l-al_r
-    (:func:`naseview.curves.metrics.boundary_errors`). Empty without the truth file.
+    (:func:`naseview.stage2_curves.metrics.boundary_errors`). Empty without the truth file.
     """
-    from naseview.curves.metrics import boundary_errors, px_per_mm_from_truth
     from naseview.fileio import read_json
+    from naseview.stage2_curves.metrics import boundary_errors, px_per_mm_from_truth
 
     path = run.case_dir / "truth_boundaries.json"
     if not path.is_file() or "front" not in run.truth.cameras:
@@ -282,7 +282,11 @@ def _boundary_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
 
 def _boundary_format(cases: list[dict[str, Any]], summ: dict[str, Any],
                      ids: list[str]) -> list[str]:
-    from naseview.curves.metrics import FAMILY_LABELS, PAPER_TABLE4_MAE, PAPER_TABLE5_HAUSDORFF
+    from naseview.stage2_curves.metrics import (
+        FAMILY_LABELS,
+        PAPER_TABLE4_MAE,
+        PAPER_TABLE5_HAUSDORFF,
+    )
 
     lines = [f"{'boundary':<14}{'MAE':>8}{'95% CI':>15}{'paper':>8}{'Hausdorff':>11}"
              f"{'paper':>8}"]
@@ -310,11 +314,11 @@ def surface_case(run: CaseRun) -> dict[str, Any]:
     """SPEC §6 surface figures of one case and the stage-3 ablation on the same inputs.
 
     Nose samples of ``truth_face.ply`` (truth landmarks outline the nose) to the refined
-    mesh after rigid landmark alignment (:func:`naseview.refine.surface_error`), for the
-    pipeline's mesh and for each :data:`naseview.refine.ABLATION_ROWS` variant.
+    mesh after rigid landmark alignment (:func:`naseview.stage3_mesh.surface_error`), for the
+    pipeline's mesh and for each :data:`naseview.stage3_mesh.ABLATION_ROWS` variant.
     """
     from naseview.meshio import read_mesh
-    from naseview.refine import ablation, nose_surface_samples, surface_error
+    from naseview.stage3_mesh.solve import ablation, nose_surface_samples, surface_error
 
     refined = run.result.refined
     rec = run.result.reconstruction
@@ -352,7 +356,7 @@ def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
     lines.append("paper's steps: fit = morphable-model fit (21 landmarks); arap21 / arap76 = + "
                  "ARAP with the 21 landmarks / all ad-landmarks; arap76+smooth = + cotangent "
                  "smoothing. fit+warp = fit bent smoothly to the ad-landmarks; naseview = "
-                 "the pipeline, -all76 with every sub-landmark (naseview.refine.ABLATION_ROWS)")
+                 "the pipeline, -all76 with every sub-landmark (ABLATION_ROWS)")
     return lines
 
 
