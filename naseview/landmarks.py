@@ -124,6 +124,23 @@ CURVE_LANDMARKS: dict[str, tuple[str, ...]] = {
 }
 """Landmarks each curve passes through, in order (SPEC §5). Sills are closed loops."""
 
+CURVE_VIEWS: dict[str, tuple[str, ...]] = {
+    "mid": ("left", "right"), "bottom": ("bottom",), "ala_l": ("front",),
+    "ala_r": ("front",), "c": ("front",), "sill_l": ("bottom",), "sill_r": ("bottom",),
+    "side_l": ("front",), "side_r": ("front",),
+}
+"""The photo(s) each curve is taken from (paper Fig. 14) and in which SPEC §7
+``truth_boundaries.json`` gives its 2D ground truth."""
+
+VIEW_LANDMARKS: dict[str, tuple[str, ...]] = {
+    "front": LANDMARK_IDS,
+    "left": MIDLINE_IDS + tuple(i for i in LANDMARK_IDS if i.endswith("_l")),
+    "right": MIDLINE_IDS + tuple(i for i in LANDMARK_IDS if i.endswith("_r")),
+    "bottom": ("prn", "c", "sn", "al_l", "al_r", "alp_l", "alp_r", "alpp_l", "alpp_r",
+               "ac_l", "ac_r", "md_l", "md_r", "add_l", "add_r"),
+}
+"""Which landmarks a surgeon can mark in each photo (those visible in it)."""
+
 TABLE1_DISTANCES: tuple[tuple[str, str], ...] = (
     ("mf_l", "mf_r"), ("int_l", "int_r"), ("alp_l", "alp_r"), ("ac_l", "ac_r"),
     ("md_l", "md_r"), ("g", "n"), ("n", "prn"), ("prn", "c"), ("int_l", "ac_l"),

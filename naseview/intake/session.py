@@ -78,7 +78,7 @@ from naseview.landmarks import ALL_IDS, HELPER_IDS, LANDMARK_IDS, LANDMARKS, VIE
 
 log = logging.getLogger(__name__)
 
-ANNOTATION_FORMAT = "naseview.intake.session/1"
+ANNOTATION_FORMAT = "naseview.annotation/1"
 ANNOTATION_FILE = "annotation.json"
 
 MAX_SIDE_PX = 2048
