@@ -131,6 +131,29 @@ def look_at(eye: ArrayLike, target: ArrayLike, up: ArrayLike, focal_px: float, w
     return Camera(intrinsics(focal_px, width, height), R, t, int(width), int(height))
 
 
+def orbit_camera(target: ArrayLike, direction: ArrayLike, distance_mm: float,
+                 field_mm: float, size_px: int) -> Camera:
+    """Square camera ``distance_mm`` from ``target`` along ``direction``, looking back at it.
+
+    The focal length makes ``field_mm`` at the target span the image width; image-up is
+    close to +y (the SPEC frame's up).
+
+    Args:
+        target: (3,) point the camera looks at (mm).
+        direction: (3,) from ``target`` towards the camera (any length, not zero).
+        distance_mm: camera distance from ``target`` (mm, > 0).
+        field_mm: width of the field of view at ``target`` (mm, > 0).
+        size_px: image width = height (px).
+    Returns:
+        the :class:`Camera`.
+    """
+    target = np.asarray(target, dtype=np.float64)
+    d = np.asarray(direction, dtype=np.float64)
+    d = d / np.linalg.norm(d)
+    return look_at(target + distance_mm * d, target, (0.0, 1.0, 0.0),
+                   size_px * distance_mm / field_mm, size_px, size_px)
+
+
 def rodrigues(rvec: ArrayLike) -> np.ndarray:
     """(3,) axis-angle (radians) -> (3, 3) rotation matrix."""
     r = np.asarray(rvec, dtype=np.float64)
