@@ -1,8 +1,8 @@
-"""Pointer travel of the guided click order (naseview.intake.session) on synthetic cases.
+"""Pointer travel of the guided click order (naseview.intake.click_order) on synthetic cases.
 
 For each synthetic case (generic face model, noise-free clicks) the landmarks a surgeon
 marks in each photo are visited in three orders: the guided order of
-:data:`naseview.intake.session.CLICK_ORDER`, the SPEC table order (g n k r prn c sn mf int al
+:data:`naseview.intake.click_order.CLICK_ORDER`, the SPEC table order (g n k r prn c sn mf int al
 alp alpp ac md ...) and a random order. The table prints, per order, the number of clicks
 and skips, the pointer travel in photo widths (the distance between consecutive clicks
 in a photo, divided by the photo width; switching photos is free) and a Fitts'-law
@@ -23,7 +23,7 @@ import numpy as np
 
 from naseview.case import read_case
 from naseview.facemodel import load_face_model
-from naseview.intake.session import CLICK_ORDER, VIEW_ORDER
+from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
 from naseview.landmarks import ALL_IDS
 from naseview.testbed.synth import synthesize_case
 

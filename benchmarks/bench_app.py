@@ -20,14 +20,18 @@ import threading
 import time
 from collections import defaultdict
 
+import msgspec
 import numpy as np
+import viser
 from _shared import use_shared_ict
+
+from naseview.app.serve import NaseviewApp
+from naseview.editing.baseline import baseline_from_face_model
+from naseview.facemodel import load_face_model
 
 
 def message_bytes(message: object) -> int:
     """Serialised size of one viser message (msgpack + binary buffers)."""
-    import msgspec
-
     buffers: list[memoryview] = []
     d = message.as_serializable_dict(buffers)  # type: ignore[attr-defined]
     return len(msgspec.msgpack.encode(d)) + sum(b.nbytes for b in buffers)
@@ -41,12 +45,6 @@ def main() -> None:
     ap.add_argument("--amplitude-mm", type=float, default=4.0)
     args = ap.parse_args()
     use_shared_ict()
-
-    import viser
-
-    from naseview.app.serve import NaseviewApp, baseline_from_face_model
-    from naseview.facemodel import load_face_model
-
     model = load_face_model("ict")
     baseline = baseline_from_face_model(model)
     server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)

@@ -1,12 +1,13 @@
 """Stage 1 benchmark: bundle-adjustment accuracy and speed on synthetic ICT cases.
 
-For each click-noise level, N synthetic cases (``naseview.testbed.synth``, ICT Face Model, 1024 px,
-the same identities and rigs at every level) go through :func:`naseview.stage1_landmarks.solve`
-and are measured against their truth like ``naseview evaluate``: the paper's Table 1 (mean
-|error| of the 11 landmark distances, %Error), Table 2 (n-prn, prn-sn), the landmark RMSE
-after rigid alignment, how many cases converge, and the median stage-1 time (wall clock
-and CPU; the machine's load average is printed, since other work on the 2 cores inflates
-wall time). The targets of issue 3 apply at 1.5 px.
+For each click-noise level, N synthetic cases (``naseview.testbed.synth``, ICT Face Model,
+1024 px, the same identities and rigs at every level) go through
+:func:`naseview.stage1_landmarks.bundle_adjust` and are measured against their truth like
+``naseview evaluate``: the paper's Table 1 (mean |error| of the 11 landmark distances,
+%Error), Table 2 (n-prn, prn-sn), the landmark RMSE after rigid alignment, how many cases
+converge, and the median stage-1 time (wall clock and CPU; the machine's load average is
+printed, since other work on the 2 cores inflates wall time). The targets of issue 3 apply
+at 1.5 px.
 
 Cases are rendered once into ``--data`` (default ``$TMPDIR/naseview-bench-stage1``) and
 reused. Face model: ICT Face Model (USC Institute for Creative Technologies, MIT).
@@ -27,9 +28,11 @@ from _shared import use_shared_ict
 
 from naseview.case import read_case
 from naseview.errors import NaseviewError
+from naseview.facemodel import load_face_model
 from naseview.reconstruction import read_reconstruction
-from naseview.stage1_landmarks.solve import bundle_adjust
+from naseview.stage1_landmarks import bundle_adjust
 from naseview.testbed.evaluate import landmark_rmse_case, table1_case, table2_case
+from naseview.testbed.synth import synthesize_case
 
 TARGETS = {"t1": 0.35, "pe": 1.5, "t2": 0.5, "ms": 50.0}
 TARGET_NOISE = 1.5
@@ -40,9 +43,6 @@ def ensure_cases(root: Path, n: int, noise: float, size: int, model_name: str) -
     dirs = [root / f"case-{i:03d}" for i in range(n)]
     missing = [d for d in dirs if not (d / "case.json").is_file()]
     if missing:
-        from naseview.facemodel import load_face_model
-        from naseview.testbed.synth import synthesize_case
-
         model = load_face_model(model_name)
         print(f"rendering {len(missing)} synthetic case(s) into {root} ...", flush=True)
         for d in missing:

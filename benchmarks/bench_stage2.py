@@ -1,13 +1,14 @@
 """Stage-2 benchmark: boundary curves on synthetic ICT cases (paper Tables 4-5, issue 4).
 
 For each case: synthesise it (once; kept under ``--dir``), run stage 1
-(:func:`naseview.stage1_landmarks.solve`), then time :func:`naseview.stage2_curves.extract_curves`
-with the photos already in memory and a cold cache, and measure the boundary MAE and
-Hausdorff distance against ``truth_boundaries.json`` (SPEC §6: reconstructed cameras,
-front-view px-per-mm at al_l-al_r of the true landmarks in the true camera). Also
-reported: the time of a re-run after a parameter change with a warm cache, and the 3D
-distance of each curve to the true 3D curve after a rigid landmark alignment
-(diagnostic; the paper has no such figure).
+(:func:`naseview.stage1_landmarks.bundle_adjust`), then time
+:func:`naseview.stage2_curves.extract_curves` with the photos already in memory and a cold
+cache, and measure the boundary MAE and Hausdorff distance against
+``truth_boundaries.json`` (SPEC §6: reconstructed cameras, front-view px-per-mm at
+al_l-al_r of the true landmarks in the true camera). Also reported: the time of a re-run
+after a parameter change with a warm cache, and the 3D distance of each curve to the true
+3D curve after a rigid landmark alignment (:func:`naseview.geometry.alignment.umeyama`;
+diagnostic, the paper has no such figure).
 
 Run::
 
@@ -33,9 +34,12 @@ from _shared import use_shared_ict
 
 from naseview.case import read_case
 from naseview.errors import NaseviewError
+from naseview.facemodel import FaceModel, load_face_model
 from naseview.fileio import read_json
+from naseview.geometry.alignment import umeyama
 from naseview.landmarks import CURVE_FAMILIES
 from naseview.reconstruction import read_reconstruction
+from naseview.stage1_landmarks import bundle_adjust
 from naseview.stage2_curves import CurveParams, StepCache, extract_curves
 from naseview.stage2_curves.metrics import (
     PAPER_TABLE4_MAE,
@@ -45,19 +49,11 @@ from naseview.stage2_curves.metrics import (
     px_per_mm_from_truth,
     tables_4_5,
 )
+from naseview.testbed.synth import synthesize_case
 
 TARGET_MEAN_MAE = 1.0
 TARGET_BOTTOM_MAE = 1.3
 TARGET_SECONDS = 0.5
-
-
-def _rigid(A: np.ndarray, B: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """R, t minimising |R A + t - B| (Kabsch)."""
-    ca, cb = A.mean(0), B.mean(0)
-    U, _, Vt = np.linalg.svd((A - ca).T @ (B - cb))
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(Vt.T @ U.T))])
-    R = Vt.T @ D @ U.T
-    return R, cb - R @ ca
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -71,11 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
 
     use_shared_ict()
-    from naseview.facemodel import load_face_model
-    from naseview.stage1_landmarks.solve import bundle_adjust
-    from naseview.testbed.synth import synthesize_case
-
-    model = None
+    model: FaceModel | None = None
     results, seconds, rerun, flags_bad, n_warn = [], [], [], 0, 0
     skipped: list[str] = []
     decode: list[float] = []
@@ -112,8 +104,8 @@ def main(argv: list[str] | None = None) -> int:
         flags_bad += sum(f in ("fallback", "partial") for f in res.flags.values())
         n_warn += len(res.warnings)
         ids = [k for k in sfm.landmarks if k in truth.landmarks]
-        R, t = _rigid(np.array([sfm.landmarks[k] for k in ids]),
-                      np.array([truth.landmarks[k] for k in ids]))
+        _, R, t = umeyama(np.array([sfm.landmarks[k] for k in ids]),
+                          np.array([truth.landmarks[k] for k in ids]), with_scale=False)
         for name, P in res.curves.items():
             if name in truth.curves and len(P):
                 e = point_to_polyline(P @ R.T + t, truth.curves[name], name.startswith("sill"))

@@ -7,7 +7,7 @@ Input: the true landmarks plus Gaussian noise (``--noise-mm``, like stage 1's ou
 them; with ``--synth DIR`` the cases of a ``naseview synth --batch`` folder go through the
 real stages 1-2 instead.
 
-Rows (ablation, issue 5; naseview.stage3_mesh.ABLATION_ROWS): the paper's steps ``fit`` (the
+Rows (ablation, issue 5; naseview.testbed.surface.ABLATION_ROWS): the paper's steps ``fit`` (the
 morphable-model fit on the 21 landmarks), ``fit76`` (the fit on all ad-landmarks),
 ``arap21`` / ``arap76`` (+ ARAP with the 21 landmarks / all ad-landmarks),
 ``arap76+smooth`` (+ cotangent smoothing of the positions); naseview's ``fit+warp`` (the
@@ -16,7 +16,7 @@ pipeline: warp, ARAP on the consistent handles, smoothing of the displacement). 
 the ICT base and with the generic base.
 
 Surface error: distance from 20,000 area-uniform samples of the true nose region to the
-reconstructed mesh after rigid landmark alignment (naseview.stage3_mesh.surface_error).
+reconstructed mesh after rigid landmark alignment (naseview.testbed.surface.surface_error).
 
     python benchmarks/bench_stage3.py [--cases 30] [--synth DIR]
 
@@ -30,20 +30,24 @@ import argparse
 import dataclasses
 import sys
 import time
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from _shared import use_shared_ict
 
+from naseview.case import read_case
 from naseview.facemodel import FaceModel, load_face_model
-from naseview.reconstruction import Reconstruction
-from naseview.stage3_mesh.solve import (
-    ABLATION_ROWS,
-    RefineParams,
-    nose_surface_samples,
-    refine,
-    surface_error,
-)
+from naseview.landmarks import CURVE_LANDMARKS
+from naseview.meshio import read_mesh
+from naseview.pipeline import reconstruct
+from naseview.reconstruction import Reconstruction, read_reconstruction
+from naseview.stage2_curves.params import DEFAULT_SUB_LANDMARKS
+from naseview.stage2_curves.sublandmarks import ad_landmarks
+from naseview.stage3_mesh import RefineParams, RefineResult, refine
+from naseview.testbed.surface import ABLATION_ROWS, nose_surface_samples, surface_error
 
 ROWS: dict[str, dict[str, object]] = {
     "fit": ABLATION_ROWS["fit"],
@@ -54,12 +58,8 @@ DEFAULT_ROW = "naseview"
 
 
 def true_ad_landmarks(model: FaceModel, Vt: np.ndarray, landmarks: dict[str, np.ndarray]
-                      ) -> tuple[np.ndarray, list[dict]]:
+                      ) -> tuple[np.ndarray, list[dict[str, Any]]]:
     """Ad-landmarks sampled on the truth's mesh curves, tagged as stage 2 tags them."""
-    from naseview.landmarks import CURVE_LANDMARKS
-    from naseview.stage2_curves.params import DEFAULT_SUB_LANDMARKS
-    from naseview.stage2_curves.sublandmarks import ad_landmarks
-
     curves, anchors = {}, {}
     for name, path in model.curve_vertices.items():
         path = np.asarray(path)
@@ -72,7 +72,8 @@ def true_ad_landmarks(model: FaceModel, Vt: np.ndarray, landmarks: dict[str, np.
 
 
 def synthetic_cases(truth_model: FaceModel, n: int, noise_mm: float, curve_noise_mm: float,
-                    seed0: int = 1000):
+                    seed0: int = 1000
+                    ) -> Iterator[tuple[np.ndarray, dict[str, np.ndarray], Reconstruction]]:
     """Yield (truth V, truth landmarks, Reconstruction) for random identities.
 
     Landmarks get independent Gaussian noise. A boundary curve from stage 2 passes through
@@ -105,14 +106,11 @@ def synthetic_cases(truth_model: FaceModel, n: int, noise_mm: float, curve_noise
         yield Vt, true_lm, Reconstruction(landmarks=lm, ad_landmarks=ad, ad_landmark_tags=tags)
 
 
-def synth_dir_cases(root: Path, model: FaceModel):
+def synth_dir_cases(root: Path, model: FaceModel
+                    ) -> Iterator[tuple[np.ndarray, np.ndarray, dict[str, np.ndarray],
+                                        Reconstruction]]:
     """Yield (truth V, truth F, truth landmarks, Reconstruction) from a synth batch folder
     through the real stages 1-2 (naseview.pipeline)."""
-    from naseview.case import read_case
-    from naseview.meshio import read_mesh
-    from naseview.pipeline import reconstruct
-    from naseview.reconstruction import read_reconstruction
-
     for d in sorted(p for p in root.iterdir() if (p / "case.json").is_file()):
         truth = read_reconstruction(d / "truth.json")
         tV, tF = read_mesh(d / "truth_face.ply")
@@ -120,9 +118,10 @@ def synth_dir_cases(root: Path, model: FaceModel):
         yield tV, tF, truth.landmarks, res.reconstruction
 
 
-def resolve_times(res, rng: np.random.Generator, n: int = 10) -> list[float]:
+def resolve_times(res: RefineResult, rng: np.random.Generator, n: int = 10) -> list[float]:
     """Seconds per re-solve after moving one random landmark handle by 1-3 mm."""
     dfm = res.deformer
+    assert dfm is not None, "the default row runs ARAP"
     H = res.handles.targets.copy()
     lm_idx = np.flatnonzero(res.handles.is_landmark)
     out = []
@@ -135,9 +134,23 @@ def resolve_times(res, rng: np.random.Generator, n: int = 10) -> list[float]:
     return out
 
 
-def main(argv: list[str] | None = None) -> int:
-    use_shared_ict()
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+Case = tuple[np.ndarray, np.ndarray, dict[str, np.ndarray], Reconstruction]
+"""(truth V, truth F, truth landmarks, stage 1-2 reconstruction)."""
+
+
+@dataclass
+class _Tally:
+    """Per (base, row) the surface figures of every case; per base the default row's
+    refine times, re-solve times and warning count."""
+
+    table: dict[tuple[str, str], list[dict[str, float]]] = field(default_factory=dict)
+    times: dict[str, list[float]] = field(default_factory=dict)
+    resolve: dict[str, list[float]] = field(default_factory=dict)
+    warnings: dict[str, int] = field(default_factory=dict)
+
+
+def _arguments(argv: list[str] | None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     ap.add_argument("--cases", type=int, default=30)
     ap.add_argument("--noise-mm", type=float, default=0.3,
                     help="landmark noise SD per axis (stage 1 output)")
@@ -147,46 +160,43 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--synth", type=Path, default=None,
                     help="folder of synth cases (naseview synth --batch) run through stages 1-2")
     ap.add_argument("--bases", default="ict,generic")
-    args = ap.parse_args(argv)
+    return ap.parse_args(argv)
 
-    ict = load_face_model("ict")
-    bases = {b: (ict if b == "ict" else load_face_model(b)) for b in args.bases.split(",")}
-    defaults = RefineParams()
+
+def _cases(args: argparse.Namespace, ict: FaceModel) -> tuple[list[Case], str]:
+    """The cases (synth folder or random ICT identities) and a line saying which."""
     if args.synth is not None:
         cases = [(tV, tF, tl, rec) for tV, tF, tl, rec in synth_dir_cases(args.synth, ict)]
-        src = f"{len(cases)} synth cases of {args.synth} through stages 1-2"
-    else:
-        cases = [(Vt, ict.faces, tl, rec) for Vt, tl, rec in
-                 synthetic_cases(ict, args.cases, args.noise_mm, args.curve_noise_mm)]
-        src = (f"{len(cases)} random ICT identities, landmark noise {args.noise_mm} mm, "
-               f"sub-landmark noise {args.curve_noise_mm} mm")
-    print(f"stage 3 benchmark: {src}")
-    samples = [nose_surface_samples(tV, tF, tl) for tV, tF, tl, _ in cases]
-    rng = np.random.default_rng(0)
-    table: dict[tuple[str, str], list[dict[str, float]]] = {}
-    times: dict[str, list[float]] = {}
-    resolve: dict[str, list[float]] = {}
-    warnings: dict[str, int] = {}
-    for bname, model in bases.items():
-        for ci, (tV, tF, tl, rec) in enumerate(cases):
-            for row, kw in ROWS.items():
-                p = dataclasses.replace(defaults, **kw)
-                t = time.perf_counter()
-                res = refine(model, rec, p)
-                dt = time.perf_counter() - t
-                e = surface_error(tV, tF, tl, res.V, res.F, rec.landmarks,
-                                  samples=samples[ci])
-                e["folded"] = 0 if res.report is None else len(res.report.folded_faces)
-                table.setdefault((bname, row), []).append(e)
-                if row == DEFAULT_ROW:
-                    times.setdefault(bname, []).append(dt)
-                    resolve.setdefault(bname, []).extend(resolve_times(res, rng))
-                    warnings[bname] = warnings.get(bname, 0) + len(res.warnings)
-            print(f"  {bname} case {ci + 1}/{len(cases)}", end="\r", file=sys.stderr)
-    print(" " * 40, end="\r", file=sys.stderr)
+        return cases, f"{len(cases)} synth cases of {args.synth} through stages 1-2"
+    cases = [(Vt, ict.faces, tl, rec) for Vt, tl, rec in
+             synthetic_cases(ict, args.cases, args.noise_mm, args.curve_noise_mm)]
+    return cases, (f"{len(cases)} random ICT identities, landmark noise {args.noise_mm} mm, "
+                   f"sub-landmark noise {args.curve_noise_mm} mm")
+
+
+def _run_case(tally: _Tally, bname: str, model: FaceModel, case: Case, samples: np.ndarray,
+              rng: np.random.Generator) -> None:
+    """Every row of one case on one base; the default row is also timed and re-solved."""
+    tV, tF, tl, rec = case
+    for row, kw in ROWS.items():
+        p = dataclasses.replace(RefineParams(), **kw)
+        t = time.perf_counter()
+        res = refine(model, rec, p)
+        dt = time.perf_counter() - t
+        e = surface_error(tV, tF, tl, res.V, res.F, rec.landmarks, samples=samples)
+        e["folded"] = 0 if res.report is None else len(res.report.folded_faces)
+        tally.table.setdefault((bname, row), []).append(e)
+        if row == DEFAULT_ROW:
+            tally.times.setdefault(bname, []).append(dt)
+            tally.resolve.setdefault(bname, []).extend(resolve_times(res, rng))
+            tally.warnings[bname] = tally.warnings.get(bname, 0) + len(res.warnings)
+
+
+def _print_tables(tally: _Tally, bases: Iterable[str]) -> None:
+    """The surface table (mean, p95, worst case mean, folds) and the timing table."""
     print(f"\n{'base':8s} {'row':14s} {'mean mm':>8s} {'p95 mm':>8s} {'worst mean':>10s}"
           f" {'folds':>6s}")
-    for (bname, row), errs in table.items():
+    for (bname, row), errs in tally.table.items():
         m = np.array([e["mean_mm"] for e in errs])
         p95 = np.array([e["p95_mm"] for e in errs])
         nf = sum(int(e["folded"]) for e in errs)
@@ -195,9 +205,27 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\n{'base':8s} {'refine s (median)':>18s} {'re-solve ms median':>19s} {'p95':>6s}"
           f" {'warnings':>9s}")
     for bname in bases:
-        r = np.array(resolve[bname]) * 1000
-        print(f"{bname:8s} {np.median(times[bname]):18.3f} {np.median(r):19.1f} "
-              f"{np.percentile(r, 95):6.1f} {warnings[bname]:9d}")
+        r = np.array(tally.resolve[bname]) * 1000
+        print(f"{bname:8s} {np.median(tally.times[bname]):18.3f} {np.median(r):19.1f} "
+              f"{np.percentile(r, 95):6.1f} {tally.warnings[bname]:9d}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    use_shared_ict()
+    args = _arguments(argv)
+    ict = load_face_model("ict")
+    bases = {b: (ict if b == "ict" else load_face_model(b)) for b in args.bases.split(",")}
+    cases, src = _cases(args, ict)
+    print(f"stage 3 benchmark: {src}")
+    samples = [nose_surface_samples(tV, tF, tl) for tV, tF, tl, _ in cases]
+    rng = np.random.default_rng(0)
+    tally = _Tally()
+    for bname, model in bases.items():
+        for ci, case in enumerate(cases):
+            _run_case(tally, bname, model, case, samples[ci], rng)
+            print(f"  {bname} case {ci + 1}/{len(cases)}", end="\r", file=sys.stderr)
+    print(" " * 40, end="\r", file=sys.stderr)
+    _print_tables(tally, bases)
     print(f"\ntargets: ict {DEFAULT_ROW} mean <= 0.8, p95 <= 2.0; generic mean <= 1.2; "
           "re-solve median <= 50 ms")
     return 0

@@ -28,8 +28,8 @@ from naseview.errors import NaseviewError
 from naseview.facemodel import load_face_model
 from naseview.render import render_mesh
 from naseview.testbed.synth import (
-    _streams,
     build_scene,
+    random_streams,
     sample_identity,
     sample_rig,
     synthesize_case,
@@ -48,7 +48,7 @@ def bench(model_name: str, n: int, size: int) -> dict[str, float | int | str]:
             synthesize_case(Path(tmp) / f"c{i}", model, seed=i, size=size)
             case_t.append(time.perf_counter() - t0)
             case_cpu.append(time.process_time() - c0)
-    rs = _streams(0)
+    rs = random_streams(0)
     V, _ = sample_identity(model, rs["identity"])
     cams, _ = sample_rig(V, model, rs["rig"], size)
     scene, _ = build_scene(model, V, rs["appearance"])

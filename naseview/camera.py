@@ -1,4 +1,5 @@
-"""Pinhole cameras in the SPEC §4 convention.
+"""Pinhole cameras in the SPEC §4 convention (the projection in the reprojection error of
+stage 1, paper §3.2, eq. 1).
 
 ``x_cam = R @ X + t``; ``[u*w, v*w, w] = K @ x_cam``; the camera looks along +z_cam and
 image y points down. World frame: millimetres, origin at glabella ``g``, +x to the
@@ -168,6 +169,8 @@ def rodrigues(rvec: ArrayLike) -> np.ndarray:
 
 def rotation_to_rvec(R: ArrayLike) -> np.ndarray:
     """(3, 3) rotation -> (3,) axis-angle (radians)."""
+    # lazy: scipy.spatial.transform adds ~0.3 s to `import naseview.camera` (0.06-0.1 s
+    # without it, python -X importtime), and every module of the package imports this one
     from scipy.spatial.transform import Rotation
 
     return Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_rotvec()

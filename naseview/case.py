@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from naseview.camera import intrinsics
 from naseview.errors import NaseviewError
 from naseview.fileio import atomic_write_json, image_size, read_image, read_json, write_image
 from naseview.landmarks import ALL_IDS, LANDMARK_IDS, VIEWS
@@ -52,8 +53,6 @@ class View:
 
     def known_K(self) -> np.ndarray | None:
         """(3, 3) intrinsics if the case gives them, else ``None``."""
-        from naseview.camera import intrinsics
-
         if not self.camera:
             return None
         if "K" in self.camera:
@@ -71,6 +70,7 @@ class Case:
         views: view name -> :class:`View` (all four present).
         scale_mm: ``(id_a, id_b)`` -> measured distance in mm (at least one).
         notes: free text.
+        extra: unknown top-level keys of ``case.json``, kept and written back verbatim.
     """
 
     root: Path
@@ -81,6 +81,7 @@ class Case:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def image_path(self, view: str) -> Path:
+        """The photo file of ``view``."""
         return self.root / self.views[view].image
 
     def load_image(self, view: str) -> np.ndarray:
@@ -93,6 +94,7 @@ class Case:
                 for lid, xy in view.landmarks.items() if lid in LANDMARK_IDS]
 
     def to_json(self) -> dict[str, Any]:
+        """The ``case.json`` object (SPEC §3) of this case."""
         views = {}
         for name, v in self.views.items():
             entry: dict[str, Any] = {
@@ -115,6 +117,7 @@ class Case:
 
 
 def _err(path: Path, key: str, expected: str) -> NaseviewError:
+    """The one-line error ``<file>: key '<key>': <what was expected>``."""
     return NaseviewError(f"{path}: key {key!r}: {expected}")
 
 
@@ -129,6 +132,7 @@ def parse_scale_key(key: str) -> tuple[str, str] | None:
 
 
 def _parse_point(path: Path, key: str, value: Any, width: int, height: int) -> np.ndarray:
+    """A click ``[x, y]`` (px) that must lie inside the ``width`` x ``height`` photo."""
     if (not isinstance(value, (list, tuple)) or len(value) != 2
             or not all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in value)):
         raise _err(path, key, "expected [x, y] pixel coordinates (two numbers)")
@@ -142,6 +146,7 @@ def _parse_point(path: Path, key: str, value: Any, width: int, height: int) -> n
 
 
 def _parse_camera(path: Path, key: str, value: Any) -> dict[str, Any]:
+    """``{"focal_px": f}`` or ``{"K": 3x3}`` of a view, normalised to plain numbers."""
     if not isinstance(value, dict):
         raise _err(path, key, 'expected {"focal_px": f} or {"K": 3x3 matrix}')
     if "K" in value:
@@ -174,38 +179,55 @@ def parse_case(obj: dict[str, Any], root: Path, json_path: Path | None = None,
     views_obj = obj.get("views")
     if not isinstance(views_obj, dict):
         raise _err(path, "views", "expected an object with front, left, right, bottom")
-    views: dict[str, View] = {}
-    for name in VIEWS:
-        if name not in views_obj:
-            raise _err(path, f"views.{name}", "missing; all four views are required "
-                                              "(front, left, right, bottom)")
-        v = views_obj[name]
-        if not isinstance(v, dict):
-            raise _err(path, f"views.{name}", "expected an object with image and landmarks")
-        image = v.get("image")
-        if not isinstance(image, str) or not image:
-            raise _err(path, f"views.{name}.image", "expected the photo's file name")
-        if check_images:
-            img_path = root / image
-            if not img_path.is_file():
-                raise _err(path, f"views.{name}.image",
-                           f"photo {img_path} not found; put it next to case.json")
-            width, height = image_size(img_path)
-        else:
-            width, height = int(v.get("width", 0)), int(v.get("height", 0))
-        lms = v.get("landmarks", {})
-        if not isinstance(lms, dict):
-            raise _err(path, f"views.{name}.landmarks", 'expected {"id": [x, y], ...}')
-        points: dict[str, np.ndarray] = {}
-        for lid, xy in lms.items():
-            key = f"views.{name}.landmarks.{lid}"
-            if lid not in ALL_IDS:
-                raise _err(path, key, "unknown landmark id; known ids: " + ", ".join(ALL_IDS))
-            points[lid] = _parse_point(path, key, xy, width or 10**9, height or 10**9)
-        camera = _parse_camera(path, f"views.{name}.camera", v["camera"]) \
-            if v.get("camera") is not None else None
-        views[name] = View(name, image, points, width, height, camera)
-    scale_obj = obj.get("scale_mm")
+    views = {name: _parse_view(path, name, views_obj, root, check_images) for name in VIEWS}
+    scale = _parse_scale(path, obj.get("scale_mm"))
+    case_id = obj.get("id", root.name)
+    if not isinstance(case_id, str):
+        raise _err(path, "id", "expected a string")
+    notes = obj.get("notes", "")
+    known = {"format", "id", "views", "scale_mm", "notes"}
+    extra = {k: val for k, val in obj.items() if k not in known}
+    return Case(root=root, id=case_id, views=views, scale_mm=scale,
+                notes=notes if isinstance(notes, str) else "", extra=extra)
+
+
+def _parse_view(path: Path, name: str, views_obj: dict[str, Any], root: Path,
+                check_images: bool) -> View:
+    """``views.<name>``: the photo (its size read from the file when ``check_images``),
+    the clicks and the optional camera."""
+    if name not in views_obj:
+        raise _err(path, f"views.{name}", "missing; all four views are required "
+                                          "(front, left, right, bottom)")
+    v = views_obj[name]
+    if not isinstance(v, dict):
+        raise _err(path, f"views.{name}", "expected an object with image and landmarks")
+    image = v.get("image")
+    if not isinstance(image, str) or not image:
+        raise _err(path, f"views.{name}.image", "expected the photo's file name")
+    if check_images:
+        img_path = root / image
+        if not img_path.is_file():
+            raise _err(path, f"views.{name}.image",
+                       f"photo {img_path} not found; put it next to case.json")
+        width, height = image_size(img_path)
+    else:
+        width, height = int(v.get("width", 0)), int(v.get("height", 0))
+    lms = v.get("landmarks", {})
+    if not isinstance(lms, dict):
+        raise _err(path, f"views.{name}.landmarks", 'expected {"id": [x, y], ...}')
+    points: dict[str, np.ndarray] = {}
+    for lid, xy in lms.items():
+        key = f"views.{name}.landmarks.{lid}"
+        if lid not in ALL_IDS:
+            raise _err(path, key, "unknown landmark id; known ids: " + ", ".join(ALL_IDS))
+        points[lid] = _parse_point(path, key, xy, width or 10**9, height or 10**9)
+    camera = _parse_camera(path, f"views.{name}.camera", v["camera"]) \
+        if v.get("camera") is not None else None
+    return View(name, image, points, width, height, camera)
+
+
+def _parse_scale(path: Path, scale_obj: Any) -> dict[tuple[str, str], float]:
+    """``scale_mm``: at least one ``"<id>-<id>": mm`` calliper distance."""
     if not isinstance(scale_obj, dict) or not scale_obj:
         raise _err(path, "scale_mm", 'missing; give at least one calliper distance in mm, '
                                      'e.g. "scale_mm": {"al_l-al_r": 34.5}')
@@ -218,14 +240,7 @@ def parse_case(obj: dict[str, Any], root: Path, json_path: Path | None = None,
         if not isinstance(d, (int, float)) or isinstance(d, bool) or not (0 < d < 500):
             raise _err(path, f"scale_mm.{key}", "expected a positive distance in mm")
         scale[pair] = float(d)
-    case_id = obj.get("id", root.name)
-    if not isinstance(case_id, str):
-        raise _err(path, "id", "expected a string")
-    notes = obj.get("notes", "")
-    known = {"format", "id", "views", "scale_mm", "notes"}
-    extra = {k: val for k, val in obj.items() if k not in known}
-    return Case(root=root, id=case_id, views=views, scale_mm=scale,
-                notes=notes if isinstance(notes, str) else "", extra=extra)
+    return scale
 
 
 def read_case(case_dir: str | os.PathLike[str]) -> Case:

@@ -12,52 +12,18 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from naseview.app.serve import serve_command
 from naseview.errors import NaseviewError
-
-
-def _cmd_synth(args: argparse.Namespace) -> int:
-    from naseview.testbed.synth import synth_command
-
-    return synth_command(args)
-
-
-def _cmd_sheet(args: argparse.Namespace) -> int:
-    from naseview.testbed.sheet import sheet_command
-
-    return sheet_command(args)
-
-
-def _cmd_reconstruct(args: argparse.Namespace) -> int:
-    from naseview.pipeline import reconstruct_command
-
-    return reconstruct_command(args)
-
-
-def _cmd_evaluate(args: argparse.Namespace) -> int:
-    from naseview.testbed.evaluate import evaluate_command
-
-    return evaluate_command(args)
-
-
-def _cmd_serve(args: argparse.Namespace) -> int:
-    from naseview.app.serve import serve_command
-
-    return serve_command(args)
-
-
-def _cmd_report(args: argparse.Namespace) -> int:
-    from naseview.report import report_command
-
-    return report_command(args)
-
-
-def _cmd_model(args: argparse.Namespace) -> int:
-    from naseview.facemodel.store import model_command
-
-    return model_command(args)
+from naseview.facemodel.store import model_command
+from naseview.pipeline import STAGE_TITLES, reconstruct_command
+from naseview.report import report_command
+from naseview.testbed.evaluate import evaluate_command
+from naseview.testbed.sheet import sheet_command
+from naseview.testbed.synth import synth_command
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``naseview`` argument parser: one subcommand per job, each with its ``func``."""
     p = argparse.ArgumentParser(
         prog="naseview",
         description="3D nose reconstruction from four photos and 21 landmarks "
@@ -76,14 +42,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write N cases case-000.. under OUT_DIR (seeds 0..N-1 + --seed)")
     s.add_argument("--image-noise", type=float, default=2.0,
                    help="photo sensor noise, grey levels (0 for none)")
-    s.set_defaults(func=_cmd_synth)
+    s.set_defaults(func=synth_command)
 
     s = sub.add_parser("sheet", help="PNG contact sheet of a case's photos with clicks")
     s.add_argument("case_dir", type=Path)
     s.add_argument("-o", "--output", type=Path, required=True, help="PNG file to write")
     s.add_argument("--reconstruction", type=Path, default=None,
                    help="also draw reprojected landmarks and curves of this reconstruction")
-    s.set_defaults(func=_cmd_sheet)
+    s.set_defaults(func=sheet_command)
 
     s = sub.add_parser("reconstruct", help="reconstruct a case directory")
     s.add_argument("case_dir", type=Path)
@@ -93,16 +59,19 @@ def build_parser() -> argparse.ArgumentParser:
                         "installed, else generic)")
     s.add_argument("--export", action="append", default=[], choices=["stl", "obj", "glb"],
                    help="also export face and nose meshes in this format (repeatable)")
-    s.add_argument("--stages", default="1,2,3", help="stages to run, e.g. 1 or 1,2")
-    s.set_defaults(func=_cmd_reconstruct)
+    s.add_argument("--stages", default="1,2,3",
+                   help="stages to run, e.g. 1 or 1,2 (default 1,2,3; 1 is always needed): "
+                        + "; ".join(STAGE_TITLES.values()))
+    s.set_defaults(func=reconstruct_command)
 
     s = sub.add_parser("evaluate", help="accuracy against synthetic ground truth (paper "
                                         "Tables 1, 2, 4, 5 and surface error)")
     s.add_argument("case_dirs", type=Path, nargs="+")
     s.add_argument("--json", action="store_true", help="print machine-readable JSON")
     s.add_argument("--model", default=None, help="base face model for stage 3")
-    s.add_argument("--stages", default="1,2,3", help="stages to run and evaluate")
-    s.set_defaults(func=_cmd_evaluate)
+    s.add_argument("--stages", default="1,2,3",
+                   help="stages to run and evaluate: " + "; ".join(STAGE_TITLES.values()))
+    s.set_defaults(func=evaluate_command)
 
     s = sub.add_parser("serve", help="open the 3D viewer / editor in the browser")
     s.add_argument("path", type=Path, nargs="?", default=None,
@@ -115,7 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--new", action="store_true",
                    help="start with the new-patient page: upload four photos and click the "
                         "landmarks (kept in $NASEVIEW_WORK_DIR or ~/naseview-patients)")
-    s.set_defaults(func=_cmd_serve)
+    s.set_defaults(func=serve_command)
 
     s = sub.add_parser("report", help="consultation report (self-contained HTML + PNGs) "
                                       "from a session file or a reconstruction directory")
@@ -128,20 +97,21 @@ def build_parser() -> argparse.ArgumentParser:
                    help="leave out the photos and notes; render the nose region only")
     s.add_argument("--case", type=Path, default=None,
                    help="case directory with the photos (default: the one PATH names)")
-    s.set_defaults(func=_cmd_report)
+    s.set_defaults(func=report_command)
 
     s = sub.add_parser("model", help="install or inspect face models")
     msub = s.add_subparsers(dest="model_command", required=True, metavar="ACTION")
     m = msub.add_parser("import-ict", help="import an ICT-FaceKit checkout (or its "
-                                           "FaceXModel folder, or a converted .npz)")
+                                           "FaceXModel folder, a converted .npz, or a "
+                                           "folder holding ict_face_light.npz)")
     m.add_argument("source", type=Path)
-    m.set_defaults(func=_cmd_model)
+    m.set_defaults(func=model_command)
     m = msub.add_parser("fetch", help="download the ICT Face Model files from GitHub "
                                       "(the only network access naseview makes)")
     m.add_argument("--url", default=None, help="alternative base URL of FaceXModel/")
-    m.set_defaults(func=_cmd_model)
+    m.set_defaults(func=model_command)
     m = msub.add_parser("info", help="list installed face models")
-    m.set_defaults(func=_cmd_model)
+    m.set_defaults(func=model_command)
     return p
 
 

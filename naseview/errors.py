@@ -1,4 +1,4 @@
-"""Errors and warnings shown to the user as one line each."""
+"""The one error type shown to the user, as one line."""
 
 from __future__ import annotations
 
@@ -9,7 +9,3 @@ class NaseviewError(Exception):
     The CLI prints ``naseview: error: <message>`` and exits with status 2; the app shows the
     message in the page. Raise it only with a message a surgeon can act on.
     """
-
-
-class NaseviewWarning(UserWarning):
-    """A recoverable problem (a curve fell back to interpolation, a click looks wrong)."""

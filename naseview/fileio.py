@@ -13,9 +13,19 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 
 from naseview.errors import NaseviewError
+
+
+def one_line(e: object) -> str:
+    """``e`` (an exception or a reason) as one line of text, for a one-line error.
+
+    >>> one_line(OSError("disk\\n  full"))
+    'disk full'
+    """
+    return " ".join(str(e).split()) or type(e).__name__
 
 
 def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
@@ -42,6 +52,7 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
 
 
 def _json_default(obj: Any) -> Any:
+    """JSON value of what :mod:`json` cannot encode: numpy arrays and scalars, paths."""
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.generic):
@@ -80,8 +91,6 @@ def read_image(path: str | os.PathLike[str]) -> np.ndarray:
     EXIF orientation is honoured. Raises :class:`NaseviewError` when the file is missing or
     is not a readable image.
     """
-    import cv2
-
     path = Path(path)
     if not path.is_file():
         raise NaseviewError(f"{path}: image file not found")
@@ -101,8 +110,6 @@ def image_size(path: str | os.PathLike[str]) -> tuple[int, int]:
 
 def write_image(path: str | os.PathLike[str], image: np.ndarray, quality: int = 92) -> Path:
     """Encode (H, W, 3) uint8 BGR as PNG or JPEG by the suffix of ``path``, atomically."""
-    import cv2
-
     path = Path(path)
     ext = path.suffix.lower()
     if ext in (".jpg", ".jpeg"):

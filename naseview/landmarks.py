@@ -1,5 +1,10 @@
 """The 21 nasal landmarks and 2 helper clicks of SPEC §1, the one table everything uses.
 
+The landmarks are the paper's (section 3.2, Fig. 2; the ``add`` helpers, section 3.3.2);
+this module is also the one home of the curve tables (which landmarks each SPEC §5 curve
+passes through, which photo it is taken from: paper section 3.3, Fig. 14) and of which
+landmarks each photo shows.
+
 Suffix ``_l`` / ``_r`` is the *subject's* left / right. In the SPEC frame the subject's
 left is +x (see :mod:`naseview.camera`).
 

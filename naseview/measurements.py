@@ -1,14 +1,18 @@
 """Clinical nasal measurements from the 3D landmarks, the mid-curve and the refined mesh.
 
-All inputs are in the SPEC frame (mm, origin g, +x subject's left, +y up, +z anterior).
-:func:`clinical_measurements` returns a flat ``{name: value}`` dict (mm, degrees or a plain
-ratio) for ``reconstruction.json``; a measurement whose landmarks are missing is omitted.
-:data:`MEASUREMENT_INFO` describes every name for the app and reports.
+The 11 landmark distances of the paper's Table 1 (section 4; SPEC §6) and, beyond the
+paper, common rhinometric measurements (nasal index, nasofrontal angle, Goode ratio,
+dorsal hump depth). All inputs are in the SPEC frame (mm, origin g, +x subject's left,
++y up, +z anterior). :func:`clinical_measurements` returns a flat ``{name: value}`` dict
+(mm, degrees or a plain ratio) for ``reconstruction.json``; a measurement whose landmarks
+are missing is omitted. :data:`MEASUREMENT_INFO` describes every name for the app and
+reports.
 
 Example
 -------
->>> m = clinical_measurements(rec.landmarks, rec.curves)    # doctest: +SKIP
->>> m["nasal_index"], MEASUREMENT_INFO["nasal_index"].normal  # doctest: +SKIP
+>>> m = clinical_measurements({"n": np.array([0.0, -15, -3]), "prn": np.array([0.0, -45, 25])})
+>>> round(m["n-prn"], 2), round(m["nasal_length"], 2), MEASUREMENT_INFO["nasal_length"].unit
+(41.04, 41.04, 'mm')
 """
 
 from __future__ import annotations
@@ -87,6 +91,7 @@ MEASUREMENT_INFO: dict[str, MeasurementInfo] = {m.name: m for m in _INFO}
 
 
 def _get(landmarks: Mapping[str, np.ndarray], *ids: str) -> list[np.ndarray] | None:
+    """(3,) float positions of ``ids``, or None when one is missing or not finite."""
     out = []
     for i in ids:
         p = landmarks.get(i)
@@ -205,47 +210,76 @@ def clinical_measurements(landmarks: Mapping[str, np.ndarray],
     Returns:
         name -> value; names of :data:`MEASUREMENT_INFO` whose inputs are present.
     """
-    out: dict[str, float] = {}
-    for a, b in TABLE1_DISTANCES:
-        p = _get(landmarks, a, b)
-        if p is not None:
-            out[distance_key(a, b)] = float(np.linalg.norm(p[0] - p[1]))
+    out = _distances(landmarks)
+    out.update(_nasal_index(out))
+    out.update(_nasofrontal_angle(landmarks))
+    out.update(_tip_projection(landmarks, out))
+    out.update(_dorsal_hump(landmarks, curves, V, F))
+    return out
 
-    def dist(name: str, a: str, b: str) -> None:
+
+_NAMED_DISTANCES: tuple[tuple[str, str, str], ...] = (
+    ("nasal_length", "n", "prn"), ("nasal_height", "n", "sn"),
+    ("nasal_width", "al_l", "al_r"), ("alar_base", "ac_l", "ac_r"),
+)
+"""Rhinometric distances: (name, landmark a, landmark b)."""
+
+
+def _distances(landmarks: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """The Table 1 distances, then :data:`_NAMED_DISTANCES`, where both ends exist."""
+    out: dict[str, float] = {}
+    pairs = [(distance_key(a, b), a, b) for a, b in TABLE1_DISTANCES]
+    for name, a, b in (*pairs, *_NAMED_DISTANCES):
         p = _get(landmarks, a, b)
         if p is not None:
             out[name] = float(np.linalg.norm(p[0] - p[1]))
+    return out
 
-    dist("nasal_length", "n", "prn")
-    dist("nasal_height", "n", "sn")
-    dist("nasal_width", "al_l", "al_r")
-    dist("alar_base", "ac_l", "ac_r")
-    if "nasal_width" in out and out.get("nasal_height", 0.0) > 0.0:
-        out["nasal_index"] = out["nasal_width"] / out["nasal_height"] * 100.0
+
+def _nasal_index(dist: Mapping[str, float]) -> dict[str, float]:
+    """``nasal_index`` from the nasal width and a positive nasal height."""
+    if "nasal_width" in dist and dist.get("nasal_height", 0.0) > 0.0:
+        return {"nasal_index": dist["nasal_width"] / dist["nasal_height"] * 100.0}
+    return {}
+
+
+def _nasofrontal_angle(landmarks: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """``nasofrontal_angle`` at n between n->g and n->prn."""
     p = _get(landmarks, "g", "n", "prn")
-    if p is not None:
-        out["nasofrontal_angle"] = angle_deg(p[0], p[1], p[2])
+    return {} if p is None else {"nasofrontal_angle": angle_deg(p[0], p[1], p[2])}
 
+
+def _tip_projection(landmarks: Mapping[str, np.ndarray],
+                    dist: Mapping[str, float]) -> dict[str, float]:
+    """Goode's ``tip_projection`` from the alar crease, and ``goode_ratio`` when the nasal
+    length is known."""
     acs = [q[0] for q in (_get(landmarks, "ac_l"), _get(landmarks, "ac_r")) if q is not None]
     p = _get(landmarks, "prn")
-    if acs and p is not None:
-        out["tip_projection"] = float(p[0][2] - np.mean(acs, axis=0)[2])
-        if out.get("nasal_length", 0.0) > 0.0:
-            out["goode_ratio"] = out["tip_projection"] / out["nasal_length"]
-
-    p = _get(landmarks, "n", "prn")
-    if p is not None and np.linalg.norm(p[1] - p[0]) > 1e-6:
-        n, prn = p
-        profile = None
-        mid = None if curves is None else curves.get("mid")
-        if mid is not None and len(np.asarray(mid).reshape(-1, 3)) >= 2:
-            profile = _polyline_between(np.asarray(mid, float).reshape(-1, 3), n, prn)
-        elif V is not None:
-            u, a, _ = _dorsum_frame(n, prn)
-            profile = _midline_section(np.asarray(V, float), F, n, u, a)
-        if profile is not None:
-            out["dorsal_hump_depth"] = dorsal_hump_depth(n, prn, profile)
+    if not acs or p is None:
+        return {}
+    out = {"tip_projection": float(p[0][2] - np.mean(acs, axis=0)[2])}
+    if dist.get("nasal_length", 0.0) > 0.0:
+        out["goode_ratio"] = out["tip_projection"] / dist["nasal_length"]
     return out
+
+
+def _dorsal_hump(landmarks: Mapping[str, np.ndarray],
+                 curves: Mapping[str, np.ndarray] | None,
+                 V: np.ndarray | None, F: np.ndarray | None) -> dict[str, float]:
+    """``dorsal_hump_depth`` along the mid-curve, else along the mesh's midline section."""
+    p = _get(landmarks, "n", "prn")
+    if p is None or np.linalg.norm(p[1] - p[0]) <= 1e-6:
+        return {}
+    n, prn = p
+    mid = None if curves is None else curves.get("mid")
+    if mid is not None and len(np.asarray(mid).reshape(-1, 3)) >= 2:
+        profile = _polyline_between(np.asarray(mid, float).reshape(-1, 3), n, prn)
+    elif V is not None:
+        u, anterior, _ = _dorsum_frame(n, prn)
+        profile = _midline_section(np.asarray(V, float), F, n, u, anterior)
+    else:
+        return {}
+    return {"dorsal_hump_depth": dorsal_hump_depth(n, prn, profile)}
 
 
 def format_measurements(values: Mapping[str, float]) -> list[str]:

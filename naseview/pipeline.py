@@ -1,19 +1,28 @@
-"""The reconstruction pipeline and ``naseview reconstruct``.
+"""The reconstruction pipeline and ``naseview reconstruct``: stage 1 -> 2 -> 3 (paper §3).
 
 :func:`reconstruct` runs the paper's stages in order on a :class:`~naseview.case.Case`:
 
-1. ``landmarks``: 3D landmarks and cameras by bundle adjustment (:mod:`naseview.stage1_landmarks`);
-2. ``curves``: boundary curves and ad-landmarks (:mod:`naseview.stage2_curves`);
-3. ``mesh``: base face fit and ARAP refinement of the nose (:mod:`naseview.stage3_mesh`).
+1. stage 1 — landmarks (paper §3.2): 3D landmarks and cameras by bundle adjustment
+   (:mod:`naseview.stage1_landmarks`, result :class:`~naseview.stage1_landmarks.SfmResult`);
+2. stage 2 — curves (paper §3.3): the six boundary curves and the ad-landmarks
+   (:mod:`naseview.stage2_curves`, result :class:`~naseview.stage2_curves.CurvesResult`);
+3. stage 3 — mesh (paper §3.4): base face fit, ARAP and cotangent smoothing of the nose
+   (:mod:`naseview.stage3_mesh`, result :class:`~naseview.stage3_mesh.RefineResult`).
 
-Each stage is one call below, timed into ``PipelineResult.stage_seconds`` and reported
-through ``progress(stage_name, seconds)``. :func:`write_outputs` writes SPEC §5 files.
+Each stage is one call below, timed into ``PipelineResult.stage_seconds`` under its name in
+:data:`STAGE_NAMES` and reported through ``progress(stage_name, seconds)``;
+:data:`STAGE_TITLES` is how docs and messages name the stages.
+:func:`write_outputs` writes the SPEC §5 files (see ``docs/formats.md``).
 
 Example
 -------
 >>> from naseview.case import read_case
 >>> res = reconstruct(read_case("assets/demo-case"), stages=(1,))    # doctest: +SKIP
 >>> write_outputs(res, "/tmp/out")                                   # doctest: +SKIP
+>>> parse_stages("2,1")
+(1, 2)
+>>> STAGE_TITLES[1]
+'stage 1 — landmarks (paper §3.2)'
 """
 
 from __future__ import annotations
@@ -24,33 +33,61 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
+from naseview.case import Case, read_case
 from naseview.errors import NaseviewError
+from naseview.facemodel import FaceModel, load_face_model
+from naseview.geometry.region import submesh
+from naseview.measurements import clinical_measurements
+from naseview.meshio import export_mesh
 from naseview.reconstruction import Reconstruction, write_reconstruction
-from naseview.stage1_landmarks.solve import SfmParams, SfmResult, bundle_adjust
+from naseview.stage1_landmarks import SfmParams, SfmResult, bundle_adjust
+from naseview.stage2_curves import CurveParams, CurvesResult, extract_curves
+from naseview.stage3_mesh import RefineParams, RefineResult, refine
 
 STAGE_NAMES: dict[int, str] = {1: "landmarks", 2: "curves", 3: "mesh"}
-"""Stage number -> name used in ``stage_seconds`` and progress lines."""
+"""Stage number -> name: the folders ``stage1_landmarks``, ``stage2_curves`` and
+``stage3_mesh``, the keys of ``stage_seconds`` and the progress lines."""
 
-ProgressFn = Callable[[str, float], Any]
+STAGE_TITLES: dict[int, str] = {
+    n: f"stage {n} — {STAGE_NAMES[n]} (paper §{section})"
+    for n, section in ((1, "3.2"), (2, "3.3"), (3, "3.4"))
+}
+"""Stage number -> the title docs and messages use, e.g. ``"stage 1 — landmarks (paper §3.2)"``."""
+
+ProgressFn = Callable[[str, float], object]
+"""``progress(stage_name, seconds)``, called after each stage."""
+
+_T = TypeVar("_T")
 
 
-@dataclass
+@dataclass(frozen=True)
 class PipelineParams:
     """Tunables of every stage (``None``: that stage's defaults).
 
     Attributes:
-        sfm: stage 1, :class:`naseview.stage1_landmarks.SfmParams`.
-        curves: stage 2, ``naseview.stage2_curves.CurveParams``.
-        refine: stage 3, ``naseview.stage3_mesh.RefineParams``.
+        sfm: stage 1 — landmarks, :class:`~naseview.stage1_landmarks.SfmParams`.
+        curves: stage 2 — curves, :class:`~naseview.stage2_curves.CurveParams` or None.
+        refine: stage 3 — mesh, :class:`~naseview.stage3_mesh.RefineParams` or None.
+    Raises:
+        NaseviewError: a field holds something else than its stage's params type.
     """
 
     sfm: SfmParams = field(default_factory=SfmParams)
-    curves: Any = None
-    refine: Any = None
+    curves: CurveParams | None = None
+    refine: RefineParams | None = None
+
+    def __post_init__(self) -> None:
+        for name, cls, optional in (("sfm", SfmParams, False), ("curves", CurveParams, True),
+                                    ("refine", RefineParams, True)):
+            value = getattr(self, name)
+            if not isinstance(value, cls) and not (optional and value is None):
+                allowed = f"a {cls.__name__}" + (" or None" if optional else "")
+                raise NaseviewError(f"PipelineParams.{name}: {type(value).__name__} is not "
+                                    f"{allowed}; pass the stage's own params object")
 
 
 @dataclass
@@ -65,14 +102,14 @@ class PipelineResult:
         face_vertices: (V, 3) refined face mesh (mm, SPEC frame), or None.
         faces: (F, 3) its triangles, or None.
         nose_vertex_ids: (N,) vertices of the nose region, or None.
-        stage_seconds: stage name -> wall time (s).
+        stage_seconds: stage name (:data:`STAGE_NAMES`) -> wall time (s).
         warnings: one-line messages for the user, from all stages.
     """
 
     reconstruction: Reconstruction
     sfm: SfmResult | None = None
-    curves: Any = None
-    refined: Any = None
+    curves: CurvesResult | None = None
+    refined: RefineResult | None = None
     face_vertices: np.ndarray | None = None
     faces: np.ndarray | None = None
     nose_vertex_ids: np.ndarray | None = None
@@ -94,24 +131,14 @@ def parse_stages(stages: Iterable[int] | str) -> tuple[int, ...]:
     else:
         nums = {int(s) for s in stages}
     if not nums or not nums <= set(STAGE_NAMES) or 1 not in nums:
-        raise NaseviewError(f"--stages {stages!r}: expected a comma list of 1, 2, 3 that "
-                            "includes 1 (every stage builds on the landmarks), e.g. 1,2,3")
+        raise NaseviewError(f"--stages {stages!r}: expected a comma list of 1 (landmarks), "
+                            "2 (curves), 3 (mesh) that includes 1 (every stage builds on the "
+                            "landmarks), e.g. 1,2,3")
     return tuple(sorted(nums))
 
 
-def stage1_extra(sfm: SfmResult) -> dict[str, Any]:
-    """reconstruction.json keys (beyond SPEC §5) with the stage-1 diagnostics."""
-    return {
-        "landmark_uncertainty_mm": {k: round(float(v), 4) for k, v in sfm.uncertainty_mm.items()},
-        "residuals_px": {v: {k: round(float(r), 3) for k, r in res.items()}
-                         for v, res in sfm.residuals_px.items()},
-        "suspect_clicks": [s.to_json() for s in sfm.suspect_clicks],
-        "landmarks_one_photo": dict(sfm.one_photo),
-        "landmarks_left_out": list(sfm.left_out),
-    }
-
-
-def reconstruct(case: Any, model: Any = None, stages: Iterable[int] | str = (1, 2, 3),
+def reconstruct(case: Case, model: FaceModel | str | None = None,
+                stages: Iterable[int] | str = (1, 2, 3),
                 params: PipelineParams | None = None,
                 progress: ProgressFn | None = None) -> PipelineResult:
     """Run the pipeline stages on a case.
@@ -131,77 +158,93 @@ def reconstruct(case: Any, model: Any = None, stages: Iterable[int] | str = (1, 
     stages = parse_stages(stages)
     params = params or PipelineParams()
     result = PipelineResult(reconstruction=Reconstruction())
+    sfm = _timed(result, progress, 1, lambda: bundle_adjust(case, params.sfm))
+    _take_stage1(result, sfm)
+    if 2 in stages:
+        _take_stage2(result, _timed(result, progress, 2,
+                                    lambda: extract_curves(case, None, sfm, params.curves)))
+    if 3 in stages:
+        rec = result.reconstruction
+        _take_stage3(result, _timed(result, progress, 3,
+                                    lambda: refine(_face_model(model), rec, params.refine)))
+    _take_run_info(result, case)
+    return result
+
+
+def _timed(result: PipelineResult, progress: ProgressFn | None, stage: int,
+           run: Callable[[], _T]) -> _T:
+    """``run()``, its wall time stored in ``result.stage_seconds`` and sent to ``progress``."""
+    t0 = time.perf_counter()
+    out = run()
+    dt = time.perf_counter() - t0
+    result.stage_seconds[STAGE_NAMES[stage]] = dt
+    if progress is not None:
+        progress(STAGE_NAMES[stage], dt)
+    return out
+
+
+def _face_model(model: FaceModel | str | None) -> FaceModel:
+    """The base face of stage 3: ``model`` itself, or ``load_face_model(model)``."""
+    return model if isinstance(model, FaceModel) else load_face_model(model)
+
+
+def _take_stage1(result: PipelineResult, sfm: SfmResult) -> None:
+    """Stage 1 into the result: landmarks, cameras, RMSE, diagnostics, landmark measurements."""
     rec = result.reconstruction
-
-    def timed(stage: int, fn: Callable[[], Any]) -> Any:
-        t0 = time.perf_counter()
-        out = fn()
-        dt = time.perf_counter() - t0
-        result.stage_seconds[STAGE_NAMES[stage]] = dt
-        if progress is not None:
-            progress(STAGE_NAMES[stage], dt)
-        return out
-
-    # Stage 1: 3D landmarks and cameras (paper section 3.2).
-    sfm = timed(1, lambda: bundle_adjust(case, params.sfm))
     result.sfm = sfm
     rec.landmarks = dict(sfm.landmarks)
     rec.cameras = dict(sfm.cameras)
     rec.reprojection_rmse_px = float(sfm.reprojection_rmse_px)
     rec.extra.update(stage1_extra(sfm))
-    rec.measurements = _landmark_measurements(rec.landmarks)
+    rec.measurements = clinical_measurements(rec.landmarks)
     result.warnings.extend(sfm.warnings)
 
-    # Stage 2: boundary curves and ad-landmarks (paper section 3.3).
-    if 2 in stages:
-        curves = timed(2, lambda: _stage2(case, sfm, params.curves))
-        result.curves = curves
-        rec.curves = dict(curves.curves)
-        rec.ad_landmarks = curves.ad_landmarks
-        rec.ad_landmark_tags = list(curves.ad_landmark_tags)
-        rec.extra["curve_flags"] = dict(curves.flags)
-        result.warnings.extend(curves.warnings)
-    # Stage 3: base face model, ARAP and smoothing of the nose (paper section 3.4).
-    if 3 in stages:
-        refined = timed(3, lambda: _stage3(rec, model, params.refine))
-        result.refined = refined
-        result.face_vertices, result.faces = refined.V, refined.F
-        result.nose_vertex_ids = refined.nose_vertex_ids
-        result.warnings.extend(refined.warnings)
-        rec.measurements = _mesh_measurements(rec, refined)
-        rec.extra.update(stage3_extra(refined))
-    rec.extra["case_dir"] = str(Path(case.root).resolve())  # lets the app find the photos
+
+def _take_stage2(result: PipelineResult, curves: CurvesResult) -> None:
+    """Stage 2 into the result: the SPEC §5 curves, the ad-landmarks and the curve flags."""
+    rec = result.reconstruction
+    result.curves = curves
+    rec.curves = dict(curves.curves)
+    rec.ad_landmarks = curves.ad_landmarks
+    rec.ad_landmark_tags = list(curves.ad_landmark_tags)
+    rec.extra["curve_flags"] = dict(curves.flags)
+    result.warnings.extend(curves.warnings)
+
+
+def _take_stage3(result: PipelineResult, refined: RefineResult) -> None:
+    """Stage 3 into the result: the meshes, the mesh measurements and the fit diagnostics."""
+    rec = result.reconstruction
+    result.refined = refined
+    result.face_vertices, result.faces = refined.V, refined.F
+    result.nose_vertex_ids = refined.nose_vertex_ids
+    result.warnings.extend(refined.warnings)
+    rec.measurements = clinical_measurements(rec.landmarks, rec.curves or None,
+                                             refined.V, refined.F)
+    rec.extra.update(stage3_extra(refined))
+
+
+def _take_run_info(result: PipelineResult, case: Case) -> None:
+    """The keys every run adds: the case folder (the app finds the photos there), all
+    warnings and the stage times."""
+    rec = result.reconstruction
+    rec.extra["case_dir"] = str(Path(case.root).resolve())
     rec.extra["warnings"] = list(result.warnings)
     rec.extra["stage_seconds"] = {k: round(v, 4) for k, v in result.stage_seconds.items()}
-    return result
 
 
-def _stage2(case: Any, sfm: SfmResult, params: Any) -> Any:
-    """Stage 2 on the photos of ``case`` with the stage-1 cameras and landmarks:
-    :func:`naseview.stage2_curves.extract_curves` (``params``: a CurveParams or None)."""
-    from naseview.stage2_curves import extract_curves
-
-    return extract_curves(case, None, sfm, params)
-
-
-def _stage3(rec: Reconstruction, model: Any, params: Any) -> Any:
-    """Stage 3 on the landmarks (and ad-landmarks) of ``rec``: :func:`naseview.stage3_mesh.solve`
-    with ``model`` a FaceModel, a model name / path or None (default model)."""
-    from naseview.facemodel import FaceModel, load_face_model
-    from naseview.stage3_mesh.solve import refine
-
-    fm = model if isinstance(model, FaceModel) else load_face_model(model)
-    return refine(fm, rec, params)
+def stage1_extra(sfm: SfmResult) -> dict[str, Any]:
+    """reconstruction.json keys (beyond SPEC §5) with the stage-1 diagnostics."""
+    return {
+        "landmark_uncertainty_mm": {k: round(float(v), 4) for k, v in sfm.uncertainty_mm.items()},
+        "residuals_px": {v: {k: round(float(r), 3) for k, r in res.items()}
+                         for v, res in sfm.residuals_px.items()},
+        "suspect_clicks": [s.to_json() for s in sfm.suspect_clicks],
+        "landmarks_one_photo": dict(sfm.one_photo),
+        "landmarks_left_out": list(sfm.left_out),
+    }
 
 
-def _mesh_measurements(rec: Reconstruction, refined: Any) -> dict[str, float]:
-    """Clinical measurements from the landmarks, the mid-curve and the refined mesh."""
-    from naseview.measurements import clinical_measurements
-
-    return clinical_measurements(rec.landmarks, rec.curves or None, refined.V, refined.F)
-
-
-def stage3_extra(refined: Any) -> dict[str, Any]:
+def stage3_extra(refined: RefineResult) -> dict[str, Any]:
     """reconstruction.json keys (beyond SPEC §5) with the stage-3 diagnostics."""
     fit = refined.fit
     rep = refined.report
@@ -218,13 +261,6 @@ def stage3_extra(refined: Any) -> dict[str, Any]:
     }}
 
 
-def _landmark_measurements(landmarks: dict[str, np.ndarray]) -> dict[str, float]:
-    """Clinical measurements that need only the landmarks (:mod:`naseview.measurements`)."""
-    from naseview.measurements import clinical_measurements
-
-    return clinical_measurements(landmarks)
-
-
 def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
                   export: Iterable[str] = ()) -> list[Path]:
     """Write the SPEC §5 outputs of a pipeline run, each file atomically.
@@ -238,9 +274,6 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
     out = Path(out_dir)
     written = [write_reconstruction(result.reconstruction, out / "reconstruction.json")]
     if result.face_vertices is not None and result.faces is not None:
-        from naseview.meshio import export_mesh
-        from naseview.stage3_mesh.solve import submesh
-
         V, F = np.asarray(result.face_vertices), np.asarray(result.faces)
         Vn, Fn = submesh(V, F, np.asarray(result.nose_vertex_ids))[:2]
         for fmt in ("ply", *[e for e in export if e != "ply"]):
@@ -251,8 +284,6 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
 
 def reconstruct_command(args: argparse.Namespace) -> int:
     """``naseview reconstruct CASE_DIR -o OUT_DIR [--stages 1,2,3] [--export stl]``."""
-    from naseview.case import read_case
-
     stages = parse_stages(getattr(args, "stages", "1,2,3"))
     case = read_case(args.case_dir)
 

@@ -46,6 +46,7 @@ class Reconstruction:
     extra: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
+        """The ``reconstruction.json`` object: the SPEC §5 keys, then :attr:`extra`."""
         out: dict[str, Any] = {
             "format": RECONSTRUCTION_FORMAT,
             "units": "mm",
@@ -64,6 +65,11 @@ class Reconstruction:
 
     @staticmethod
     def from_json(obj: dict[str, Any], where: str = "reconstruction.json") -> Reconstruction:
+        """Parse a ``reconstruction.json`` object; keys beyond SPEC §5 land in ``extra``.
+
+        Raises:
+            NaseviewError: wrong ``format`` or malformed points, naming ``where``.
+        """
         fmt = obj.get("format")
         if fmt != RECONSTRUCTION_FORMAT:
             raise NaseviewError(f"{where}: key 'format': expected {RECONSTRUCTION_FORMAT!r}, "

@@ -29,11 +29,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from numpy.typing import ArrayLike
 
 from naseview.camera import Camera
 from naseview.geometry.mesh import vertex_normals
+
+__all__ = ["DEFAULT_LIGHTS", "DEFAULT_LIGHT_INTENSITIES", "Raster", "RenderResult",
+           "rasterize", "rasterize_screen", "render_mesh", "shade_vertices", "visible_points"]
 
 DEFAULT_LIGHTS: tuple[tuple[float, float, float], ...] = (
     (-0.45, -0.55, -1.0),   # key light: above and left of the camera
@@ -124,32 +128,33 @@ def rasterize(V: ArrayLike, F: ArrayLike, camera: Camera, supersample: int = 1,
                             face_ids=np.flatnonzero(keep))
 
 
-def rasterize_screen(uv: ArrayLike, z: ArrayLike, F: ArrayLike, width: int, height: int,
-                     face_ids: ArrayLike | None = None) -> Raster:
-    """Z-buffer rasterisation of triangles already in screen space.
+@dataclass
+class _Triangles:
+    """Screen-space set-up of the triangles that cover at least one pixel centre.
 
-    Args:
-        uv: (V, 2) pixel coordinates of the vertices (pixel centres at integers).
-        z: (V,) positive depth of the vertices; ``1/z`` is interpolated affinely (the
-            perspective-correct rule), the smallest ``z`` wins.
-        F: (F, 3) triangles.
-        width, height: raster size in pixels.
-        face_ids: (F,) ids written to ``face_id`` (default ``arange(F)``).
-    Returns:
-        :class:`Raster` of shape ``(height, width)``.
+    Attributes:
+        tri: (T,) indices into ``F`` of these triangles.
+        bx0, by0, bw, bh: (T,) int64 pixel box (first column / row, width, height).
+        edges: (T, 6) ``a1, b1, c1, a2, b2, c2``: barycentric weight ``l_k = a_k x + b_k y
+            + c_k`` of vertices 1 and 2 (``l_0 = 1 - l_1 - l_2``).
+        iz: (T, 3) ``1/z`` of the three vertices; inv_z: (T, 3) ``ai, bi, ci``, the plane
+            ``1/z = ai x + bi y + ci`` (affine in screen space).
     """
-    uvz = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-    u, v = uvz[:, 0], uvz[:, 1]
-    z = np.asarray(z, dtype=np.float64).reshape(-1)
-    F = np.asarray(F, dtype=np.int64).reshape(-1, 3)
-    ids = np.arange(len(F)) if face_ids is None else np.asarray(face_ids, dtype=np.int64)
-    W, H = int(width), int(height)
-    depth = np.full(H * W, np.inf)
-    face_id = np.full(H * W, -1, dtype=np.int64)
-    empty = Raster(depth.reshape(H, W), face_id.reshape(H, W), np.zeros(0, dtype=np.int64),
-                   np.zeros((0, 3), dtype=np.float32))
-    if len(F) == 0:
-        return empty
+
+    tri: np.ndarray
+    bx0: np.ndarray
+    by0: np.ndarray
+    bw: np.ndarray
+    bh: np.ndarray
+    edges: np.ndarray
+    iz: np.ndarray
+    inv_z: np.ndarray
+
+
+def _setup_triangles(u: np.ndarray, v: np.ndarray, z: np.ndarray, F: np.ndarray, W: int,
+                     H: int) -> _Triangles | None:
+    """Boxes, edge functions and the 1/z plane of the front, non-degenerate triangles
+    whose box holds a pixel centre; None when there is none."""
     zt = z[F]
     keep = np.all(zt > 0, axis=1)
     ut, vt = u[F], v[F]
@@ -168,8 +173,7 @@ def rasterize_screen(uv: ArrayLike, z: ArrayLike, F: ArrayLike, width: int, heig
     keep &= np.isfinite(x0) & np.isfinite(y0) & (x1 >= x0) & (y1 >= y0)
     tri = np.flatnonzero(keep)
     if tri.size == 0:
-        return empty
-
+        return None
     ut, vt, zt, area = ut[tri], vt[tri], zt[tri], area[tri]
     bx0 = x0[tri].astype(np.int64)
     by0 = y0[tri].astype(np.int64)
@@ -188,15 +192,39 @@ def rasterize_screen(uv: ArrayLike, z: ArrayLike, F: ArrayLike, width: int, heig
     ai = a1 * (iz1 - iz0) + a2 * (iz2 - iz0)
     bi = b1 * (iz1 - iz0) + b2 * (iz2 - iz0)
     ci = iz0 + c1 * (iz1 - iz0) + c2 * (iz2 - iz0)
+    return _Triangles(tri, bx0, by0, bw, bh, np.stack([a1, b1, c1, a2, b2, c2], axis=1),
+                      np.stack([iz0, iz1, iz2], axis=1), np.stack([ai, bi, ci], axis=1))
 
-    # Scanline spans: for every triangle row, the pixel interval where all three edge
-    # functions are >= 0 (a small tolerance closes cracks between neighbours).
+
+@dataclass
+class _Spans:
+    """One scanline span per row of every triangle's box.
+
+    Attributes:
+        row_t: (R,) local triangle of the row; counts: (R,) pixels inside (>= 0);
+        ends: (R,) cumulative ``counts``; row_pix: (R,) flat index of the first pixel;
+        row_iz: (R,) ``1/z`` at the first pixel; row_dz: (R,) its step per pixel.
+    """
+
+    row_t: np.ndarray
+    counts: np.ndarray
+    ends: np.ndarray
+    row_pix: np.ndarray
+    row_iz: np.ndarray
+    row_dz: np.ndarray
+
+
+def _scanline_spans(t: _Triangles, W: int) -> _Spans:
+    """For every triangle row, the pixel interval where all three edge functions are
+    >= 0 (a small tolerance closes cracks between neighbours)."""
+    a1, b1, c1, a2, b2, c2 = t.edges.T
+    ai, bi, ci = t.inv_z.T
     eps = 1e-7
-    row_t = np.repeat(np.arange(len(tri)), bh)
-    row_y = (np.arange(len(row_t)) - np.repeat(np.cumsum(bh) - bh, bh) + by0[row_t]
-             ).astype(np.float64)
-    lo = bx0[row_t].astype(np.float64)
-    hi = (bx0 + bw - 1)[row_t].astype(np.float64)
+    row_t = np.repeat(np.arange(len(t.tri)), t.bh)
+    row_y = (np.arange(len(row_t)) - np.repeat(np.cumsum(t.bh) - t.bh, t.bh)
+             + t.by0[row_t]).astype(np.float64)
+    lo = t.bx0[row_t].astype(np.float64)
+    hi = (t.bx0 + t.bw - 1)[row_t].astype(np.float64)
     a0 = -(a1 + a2)
     b0 = -(b1 + b2)
     c0 = 1.0 - c1 - c2
@@ -211,41 +239,41 @@ def rasterize_screen(uv: ArrayLike, z: ArrayLike, F: ArrayLike, width: int, heig
         hi = np.where(neg, np.minimum(hi, np.floor(xb)), hi)
         hi = np.where((ar == 0) & (rest < 0), lo - 1, hi)
     counts = np.maximum(hi - lo + 1, 0).astype(np.int64)
-    ends = np.cumsum(counts)
     row_pix = row_y.astype(np.int64) * W + np.where(counts > 0, lo, 0).astype(np.int64)
     row_iz = ai[row_t] * lo + bi[row_t] * row_y + ci[row_t]   # 1/z at the span start
-    row_dz = ai[row_t]                                        # d(1/z)/dx
+    return _Spans(row_t, counts, np.cumsum(counts), row_pix, row_iz, ai[row_t])
+
+
+def _fragments(sp: _Spans) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Every covered pixel of every span: (M,) flat pixel, depth z and local triangle,
+    expanded in chunks of about ``_CHUNK_FRAGMENTS`` to bound memory; None if empty."""
     frags_pix, frags_z, frags_t = [], [], []
     r_start = 0
-    n_rows = len(row_t)
+    n_rows = len(sp.row_t)
     while r_start < n_rows:
-        base = int(ends[r_start - 1]) if r_start else 0
-        r_stop = int(np.searchsorted(ends, base + _CHUNK_FRAGMENTS, side="right"))
+        base = int(sp.ends[r_start - 1]) if r_start else 0
+        r_stop = int(np.searchsorted(sp.ends, base + _CHUNK_FRAGMENTS, side="right"))
         r_stop = min(max(r_stop, r_start + 1), n_rows)
-        cnt = counts[r_start:r_stop]
+        cnt = sp.counts[r_start:r_stop]
         total = int(cnt.sum())
         if total:
             rows = np.repeat(np.arange(r_start, r_stop), cnt)
-            off = np.arange(total) - np.repeat(ends[r_start:r_stop] - cnt - base, cnt)
-            frags_t.append(row_t[rows])
-            frags_pix.append(row_pix[rows] + off)
-            frags_z.append(1.0 / (row_iz[rows] + row_dz[rows] * off))
+            off = np.arange(total) - np.repeat(sp.ends[r_start:r_stop] - cnt - base, cnt)
+            frags_t.append(sp.row_t[rows])
+            frags_pix.append(sp.row_pix[rows] + off)
+            frags_z.append(1.0 / (sp.row_iz[rows] + sp.row_dz[rows] * off))
         r_start = r_stop
-
     if not frags_pix:
-        return empty
-    pix = np.concatenate(frags_pix)
-    fz = np.concatenate(frags_z)
-    np.minimum.at(depth, pix, fz)
-    win = fz <= depth[pix]
-    local = np.full(H * W, -1, dtype=np.int64)
-    local[pix[win]] = np.concatenate(frags_t)[win]
-    pixels = np.flatnonzero(local >= 0)
-    wt = local[pixels]
-    face_id[pixels] = ids[tri[wt]]
-    # Perspective-correct barycentrics of the visible triangles at the pixel centres.
+        return None
+    return np.concatenate(frags_pix), np.concatenate(frags_z), np.concatenate(frags_t)
+
+
+def _barycentrics(t: _Triangles, pixels: np.ndarray, wt: np.ndarray, depth: np.ndarray,
+                  W: int) -> np.ndarray:
+    """(M, 3) float32 perspective-correct barycentrics of the visible triangles ``wt``
+    (local ids) at the centres of ``pixels``, from the resolved ``depth``."""
     ys, xs = np.divmod(pixels, W)
-    cw = np.stack([a1, b1, c1, a2, b2, c2, iz0, iz1, iz2], axis=1)[wt]   # (M, 9)
+    cw = np.concatenate([t.edges, t.iz], axis=1)[wt]   # (M, 9)
     l1 = cw[:, 0] * xs + cw[:, 1] * ys + cw[:, 2]
     l2 = cw[:, 3] * xs + cw[:, 4] * ys + cw[:, 5]
     dz = depth[pixels]
@@ -253,14 +281,54 @@ def rasterize_screen(uv: ArrayLike, z: ArrayLike, F: ArrayLike, width: int, heig
     bary[:, 1] = l1 * cw[:, 7] * dz
     bary[:, 2] = l2 * cw[:, 8] * dz
     bary[:, 0] = 1.0 - bary[:, 1] - bary[:, 2]
-    return Raster(depth.reshape(H, W), face_id.reshape(H, W), pixels, bary)
+    return bary
+
+
+def rasterize_screen(uv: ArrayLike, z: ArrayLike, F: ArrayLike, width: int, height: int,
+                     face_ids: ArrayLike | None = None) -> Raster:
+    """Z-buffer rasterisation of triangles already in screen space.
+
+    Steps: triangle set-up (boxes, edge functions, the 1/z plane), scanline spans,
+    fragments, z-buffer (``np.minimum.at``), barycentrics of the winners.
+
+    Args:
+        uv: (V, 2) pixel coordinates of the vertices (pixel centres at integers).
+        z: (V,) positive depth of the vertices; ``1/z`` is interpolated affinely (the
+            perspective-correct rule), the smallest ``z`` wins.
+        F: (F, 3) triangles.
+        width, height: raster size in pixels.
+        face_ids: (F,) ids written to ``face_id`` (default ``arange(F)``).
+    Returns:
+        :class:`Raster` of shape ``(height, width)``.
+    """
+    uvz = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    zs = np.asarray(z, dtype=np.float64).reshape(-1)
+    F = np.asarray(F, dtype=np.int64).reshape(-1, 3)
+    ids = np.arange(len(F)) if face_ids is None else np.asarray(face_ids, dtype=np.int64)
+    W, H = int(width), int(height)
+    depth = np.full(H * W, np.inf)
+    face_id = np.full(H * W, -1, dtype=np.int64)
+    empty = Raster(depth.reshape(H, W), face_id.reshape(H, W), np.zeros(0, dtype=np.int64),
+                   np.zeros((0, 3), dtype=np.float32))
+    t = _setup_triangles(uvz[:, 0], uvz[:, 1], zs, F, W, H) if len(F) else None
+    frags = _fragments(_scanline_spans(t, W)) if t is not None else None
+    if t is None or frags is None:
+        return empty
+    pix, fz, ft = frags
+    np.minimum.at(depth, pix, fz)
+    win = fz <= depth[pix]
+    local = np.full(H * W, -1, dtype=np.int64)
+    local[pix[win]] = ft[win]
+    pixels = np.flatnonzero(local >= 0)
+    wt = local[pixels]
+    face_id[pixels] = ids[t.tri[wt]]
+    return Raster(depth.reshape(H, W), face_id.reshape(H, W), pixels,
+                  _barycentrics(t, pixels, wt, depth, W))
 
 
 def _downsample(raster: Raster, image: np.ndarray, s: int) -> tuple[np.ndarray, np.ndarray,
                                                                     np.ndarray]:
     """Box-filter the image; per output pixel keep the nearest sub-sample's depth and id."""
-    import cv2
-
     H, W = raster.depth.shape[0] // s, raster.depth.shape[1] // s
     img = cv2.resize(image, (W, H), interpolation=cv2.INTER_AREA)
     d = raster.depth.reshape(H, s, W, s).transpose(0, 2, 1, 3).reshape(H, W, s * s)

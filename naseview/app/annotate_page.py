@@ -1,15 +1,15 @@
 """The "new patient" page: photo intake and guided landmark clicks in the browser.
 
 One photo at a time fills the 3D view: the photo is a scene image (``scene.add_image``) on
-a plane far away from the face (:data:`PLANE_CENTRE`), seen straight on by a camera the
-page places; a click anywhere in the view is a ray (``scene.on_click``) that is
-intersected with the photo plane to give pixels (:class:`PhotoPlane`). The left panel
+a plane far away from the face, seen straight on by a camera the page places; a click
+anywhere in the view is a ray (``scene.on_click``) that is intersected with the photo
+plane to give pixels (:mod:`naseview.app.photo_plane`). The left panel
 names the next landmark with a one-line description and a small diagram of where it is
-(a render of the face model with the point marked, cached per landmark); a click places
-it and the next one follows (:mod:`naseview.intake.session` holds the order and every rule).
+(:mod:`naseview.app.landmark_diagrams`); a click places it and the next one follows
+(:mod:`naseview.intake` holds the order and every rule, no viser).
 Placed clicks are green rings that can be dragged; Undo and "Not visible" (skip) are one
 button each. Once enough clicks exist, the reprojection of the already reconstructed
-landmarks (quick stage 1 in a background worker) shows as a magenta ring where the
+landmarks (quick stage 1, paper §3.2, in a background worker) shows as a magenta ring where the
 next landmark should be, and as small cyan dots for the other remaining ones.
 
 "Reconstruct" writes the SPEC §3 case directory (``WORK/<id>/case``, rerunnable with
@@ -31,36 +31,33 @@ import logging
 import queue
 import threading
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
+import viser
 
+from naseview.app.gui_value import set_value
+from naseview.app.host import AppHost
+from naseview.app.landmark_diagrams import LandmarkDiagrams
+from naseview.app.patient_mode import PatientMode
+from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
+from naseview.app.photo_plane import PhotoPlane, disc_mesh, ring_mesh
 from naseview.errors import NaseviewError
+from naseview.facemodel import FaceModel
+from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, describe
+from naseview.intake.guidance import Guidance
 from naseview.intake.session import (
-    CLICK_ORDER,
-    VIEW_ORDER,
-    VIEW_TITLES,
     AnnotationSession,
-    Guidance,
     default_case_id,
     default_work_dir,
-    describe,
     list_in_progress,
 )
 from naseview.landmarks import LANDMARKS, VIEWS
 
 log = logging.getLogger(__name__)
 
-PLANE_CENTRE = np.array([0.0, 100_000.0, 0.0])
-"""Where the photo plane lives: 100 m above the face, so the face is never in view."""
-
-PLANE_SIZE = 200.0
-"""Longest side of the photo plane (scene units)."""
-
-CAMERA_DISTANCE = 400.0
 PLACED_RGB = (40, 220, 90)
 ACTIVE_RGB = (255, 210, 0)
 HINT_RGB = (255, 40, 200)
@@ -69,222 +66,18 @@ VIEW_BUTTONS = {"Front": "front", "Bottom": "bottom", "Left": "left", "Right": "
 _UNSET = object()
 
 
+NoticeColor = Literal["blue", "red", "green"]
+"""Colours of the page's notifications."""
+
+GuiEvent = viser.GuiEvent[Any]
+"""A GUI callback's event (``event.client`` is None for values the server assigns)."""
+
+
 def _view_of(label: str) -> str:
     """View of a button label such as ``"Front 8/21"``."""
     return VIEW_BUTTONS[label.split(" ", 1)[0]]
 
 
-# ----------------------------------------------------------------------------- geometry
-@dataclass(frozen=True)
-class PhotoPlane:
-    """A photo of ``width_px`` x ``height_px`` shown as a scene image.
-
-    The image node sits at ``centre`` rotated 180 degrees about x, so that seen from +z
-    with +y up its pixel ``[0, 0]`` is at the top left; its longest side is ``size``
-    scene units. Pixel coordinates follow SPEC §2 (``[0, 0]`` = centre of the top-left
-    pixel).
-    """
-
-    width_px: int
-    height_px: int
-    centre: np.ndarray = field(default_factory=lambda: PLANE_CENTRE.copy())
-    size: float = PLANE_SIZE
-
-    @property
-    def width_u(self) -> float:
-        return self.size * self.width_px / max(self.width_px, self.height_px)
-
-    @property
-    def height_u(self) -> float:
-        return self.size * self.height_px / max(self.width_px, self.height_px)
-
-    @property
-    def wxyz(self) -> tuple[float, float, float, float]:
-        return (0.0, 1.0, 0.0, 0.0)
-
-    def to_pixel(self, point: np.ndarray) -> np.ndarray:
-        """(3,) world point on the plane -> (2,) pixel ``[x, y]``."""
-        d = np.asarray(point, dtype=np.float64) - self.centre
-        u = (d[0] / self.width_u + 0.5) * self.width_px - 0.5
-        v = (-d[1] / self.height_u + 0.5) * self.height_px - 0.5
-        return np.array([u, v])
-
-    def to_world(self, uv: np.ndarray, lift: float = 0.0) -> np.ndarray:
-        """(N, 2) pixels -> (N, 3) world points ``lift`` units in front of the photo."""
-        uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
-        x = ((uv[:, 0] + 0.5) / self.width_px - 0.5) * self.width_u
-        y = -((uv[:, 1] + 0.5) / self.height_px - 0.5) * self.height_u
-        return self.centre + np.column_stack([x, y, np.full(len(uv), lift)])
-
-    def intersect(self, origin: Any, direction: Any) -> np.ndarray | None:
-        """Pixel where a view ray meets the photo plane (``None``: parallel or behind)."""
-        o = np.asarray(origin, dtype=np.float64)
-        d = np.asarray(direction, dtype=np.float64)
-        if abs(d[2]) < 1e-12:
-            return None
-        t = (self.centre[2] - o[2]) / d[2]
-        if t <= 0:
-            return None
-        return self.to_pixel(o + t * d)
-
-    def inside(self, uv: np.ndarray) -> bool:
-        return bool(-0.5 <= uv[0] <= self.width_px - 0.5
-                    and -0.5 <= uv[1] <= self.height_px - 0.5)
-
-    def fov_for(self, aspect: float, distance: float = CAMERA_DISTANCE,
-                margin: float = 1.03) -> float:
-        """Vertical field of view (rad) that fits the photo in a view of ``aspect``
-        (width / height) from ``distance``."""
-        need = max(self.height_u, self.width_u / max(aspect, 1e-3)) * margin
-        return float(2.0 * np.arctan(0.5 * need / distance))
-
-    def marker_radius(self) -> float:
-        """Radius of a click ring (scene units): ~1 % of the photo's longest side."""
-        return 0.0105 * self.size
-
-
-def ring_mesh(r_in: float, r_out: float, n: int = 28) -> tuple[np.ndarray, np.ndarray]:
-    """A flat annulus in the z = 0 plane, normal +z: (2n, 3) vertices, (2n, 3) faces."""
-    a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
-    c, s = np.cos(a), np.sin(a)
-    V = np.concatenate([np.column_stack([r_in * c, r_in * s, np.zeros(n)]),
-                        np.column_stack([r_out * c, r_out * s, np.zeros(n)])])
-    i = np.arange(n)
-    j = (i + 1) % n
-    F = np.concatenate([np.column_stack([i, n + i, n + j]), np.column_stack([i, n + j, j])])
-    return V, F.astype(np.int64)
-
-
-def disc_mesh(r: float, n: int = 20) -> tuple[np.ndarray, np.ndarray]:
-    """A flat disc in the z = 0 plane, normal +z."""
-    a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
-    V = np.vstack([[0.0, 0.0, 0.0], np.column_stack([r * np.cos(a), r * np.sin(a),
-                                                     np.zeros(n)])])
-    i = np.arange(n)
-    F = np.column_stack([np.zeros(n, np.int64), 1 + i, 1 + (i + 1) % n])
-    return V, F
-
-
-# ----------------------------------------------------------------------------- diagrams
-DIAGRAM_DIRECTIONS: dict[str, tuple[float, float, float]] = {
-    "front": (0.0, 0.0, 1.0), "left": (1.0, 0.0, 0.12), "right": (-1.0, 0.0, 0.12),
-    "bottom": (0.0, -0.8, 0.6),
-}
-"""Direction from the nose to the diagram camera per photo (SPEC frame)."""
-
-
-class LandmarkDiagrams:
-    """Small pictures of where a landmark is: the face model rendered from the photo's
-    direction, the other landmarks of that photo as grey dots, the asked one as a red
-    dot with a ring. Rendered once per photo, drawn once per landmark, then cached.
-
-    Args:
-        model: a :class:`~naseview.facemodel.FaceModel` or a name for
-            ``load_face_model`` (``None``: ICT if installed, else the generic model).
-        size: picture size (px).
-    """
-
-    def __init__(self, model: Any = None, size: int = 200) -> None:
-        self._model_arg = model
-        self.size = size
-        self._lock = threading.Lock()
-        self._model: Any = None
-        self._failed = False
-        self._base: dict[str, tuple[np.ndarray, dict[str, np.ndarray]]] = {}
-        self._cache: dict[tuple[str, str], np.ndarray] = {}
-
-    def _load(self) -> Any:
-        if self._model is None and not self._failed:
-            try:
-                from naseview.facemodel import FaceModel, load_face_model
-
-                m = self._model_arg
-                self._model = m if isinstance(m, FaceModel) else load_face_model(m)
-            except Exception as e:  # no model: the page works without diagrams
-                log.warning("naseview: landmark diagrams unavailable: %s", e)
-                self._failed = True
-        return self._model
-
-    def _points(self, model: Any) -> dict[str, np.ndarray]:
-        V = model.mean
-        pts = {k: V[i] for k, i in model.landmark_vertices.items()}
-        path = np.asarray(model.curve_vertices.get("bottom", []), dtype=np.int64)
-        for side in ("l", "r"):
-            a, b = model.landmark_vertices.get(f"alp_{side}"), model.landmark_vertices["prn"]
-            ia, ib = np.flatnonzero(path == a), np.flatnonzero(path == b)
-            if ia.size and ib.size:
-                seg = path[min(ia[0], ib[0]):max(ia[0], ib[0]) + 1]
-                pts[f"add_{side}"] = V[seg[len(seg) // 2]]
-            elif f"alp_{side}" in pts:
-                pts[f"add_{side}"] = 0.5 * (pts[f"alp_{side}"] + pts["prn"])
-        return pts
-
-    def _render(self, view: str) -> tuple[np.ndarray, dict[str, np.ndarray]] | None:
-        if view in self._base:
-            return self._base[view]
-        model = self._load()
-        if model is None:
-            return None
-        from naseview.camera import look_at
-        from naseview.render import render_mesh
-        from naseview.report import cap_holes
-
-        pts = self._points(model)
-        P = np.array([pts[i] for i in CLICK_ORDER[view] if i in pts])
-        centre = 0.5 * (P.min(axis=0) + P.max(axis=0))
-        d = np.asarray(DIAGRAM_DIRECTIONS[view], dtype=np.float64)
-        d /= np.linalg.norm(d)
-        field_mm = 1.35 * float(np.ptp(P, axis=0).max())
-        dist = 800.0
-        cam = look_at(centre + dist * d, centre, (0.0, 1.0, 0.0), self.size * dist / field_mm,
-                      self.size, self.size)
-        V, F = cap_holes(model.mean, model.faces)
-        C = np.tile(np.array([150, 178, 222], np.uint8), (len(V), 1))
-        nostrils = np.asarray(model.nostril_vertices, dtype=np.int64)
-        C[nostrils] = (40, 40, 50)
-        img = render_mesh(V, F, cam, vertex_colors=C, supersample=2,
-                          background=(245, 245, 245)).image
-        uv = {i: cam.project(pts[i])[0] for i in CLICK_ORDER[view] if i in pts}
-        self._base[view] = (img, uv)
-        return self._base[view]
-
-    def get(self, view: str, landmark: str) -> np.ndarray | None:
-        """(size, size, 3) uint8 RGB picture, or ``None`` when no face model loads."""
-        import cv2
-
-        with self._lock:
-            key = (view, landmark)
-            if key in self._cache:
-                return self._cache[key]
-            base = self._render(view)
-            if base is None:
-                return None
-            img, uv = base
-            out = img.copy()
-            for i, p in uv.items():
-                if i != landmark:
-                    cv2.circle(out, (int(round(p[0])), int(round(p[1]))), 2, (120, 120, 120),
-                               -1, cv2.LINE_AA)
-            if landmark in uv:
-                q = (int(round(uv[landmark][0])), int(round(uv[landmark][1])))
-                cv2.circle(out, q, 11, (255, 255, 255), 3, cv2.LINE_AA)
-                cv2.circle(out, q, 11, (30, 30, 220), 1, cv2.LINE_AA)
-                cv2.circle(out, q, 4, (30, 30, 220), -1, cv2.LINE_AA)
-            label = LANDMARKS[landmark].paper
-            cv2.putText(out, label, (6, self.size - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.6,
-                        (30, 30, 220), 2, cv2.LINE_AA)
-            rgb = np.ascontiguousarray(out[:, :, ::-1])
-            self._cache[key] = rgb
-            return rgb
-
-    def warm(self) -> None:
-        """Render every photo direction (call from a background thread)."""
-        for v in VIEW_ORDER:
-            with self._lock:
-                self._render(v)
-
-
-# ----------------------------------------------------------------------------- the page
 class AnnotatePage:
     """Intake and guided annotation of a new patient, in its own docked panel.
 
@@ -296,8 +89,9 @@ class AnnotatePage:
         diagram_model: face model for the landmark diagrams (``None``: default model).
     """
 
-    def __init__(self, server: Any, app: Any = None, work_dir: str | Path | None = None,
-                 diagram_model: Any = None) -> None:
+    def __init__(self, server: viser.ViserServer, app: AppHost | None = None,
+                 work_dir: str | Path | None = None,
+                 diagram_model: FaceModel | str | None = None) -> None:
         self.server = server
         self.app = app
         self.work_dir = Path(work_dir) if work_dir else default_work_dir()
@@ -309,7 +103,6 @@ class AnnotatePage:
         self.active = False
         self.plane: PhotoPlane | None = None
         self.guidance: Guidance | None = None
-        self.last_click_px: np.ndarray | None = None
         self.events: list[tuple[float, str]] = []
         self._lock = threading.RLock()
         self._queue: queue.Queue[Callable[[], None] | None] = queue.Queue()
@@ -321,22 +114,20 @@ class AnnotatePage:
         self._hint_thread = threading.Thread(target=self._hint_run, name="naseview-hints",
                                              daemon=True)
         self._hint_thread.start()
-        self._handles: dict[str, Any] = {}
+        self._handles: dict[str, Any] = {}  # scene node name -> viser handle
         self._drag: dict[int, tuple[str, np.ndarray]] = {}
-        self._click_cb: Any = None
-        self._rect_cb: Any = None
+        self._click_cb: Callable[[viser.SceneClickEvent], Any] | None = None
+        self._rect_cb: Callable[[viser.SceneRectSelectEvent], Any] | None = None
         self._drag_time = 0.0
-        self._sent: dict[tuple[int, str], Any] = {}
+        self._sent: dict[tuple[int, str], object] = {}
         self._intake_open = False
         self._last_upload = 0.0
         self._build_gui()
         threading.Thread(target=self.diagrams.warm, name="naseview-diagrams",
                          daemon=True).start()
 
-    # ------------------------------------------------------------------ GUI
+    # GUI
     def _build_gui(self) -> None:
-        import viser
-
         gui = self.server.gui
         self.panel = gui.add_panel(visible=False)
         self.panel.dock_left()
@@ -398,30 +189,32 @@ class AnnotatePage:
         self._wire()
 
     def _wire(self) -> None:
-        def safe(fn: Callable[[Any], None]) -> Callable[[Any], None]:
-            def run(event: Any) -> None:
+        def safe(fn: Callable[[GuiEvent], object]) -> Callable[[GuiEvent], None]:
+            def run(event: GuiEvent) -> None:
                 try:
                     fn(event)
                 except NaseviewError as e:
-                    self.show_error(str(e), getattr(event, "client", None))
+                    self.show_error(str(e), event.client)
                 except Exception as e:  # keep the server up, show the error
                     log.exception("naseview: annotation action failed")
-                    self.show_error(f"{type(e).__name__}: {e}",
-                                    getattr(event, "client", None))
+                    self.show_error(f"{type(e).__name__}: {e}", event.client)
             return run
 
-        def user(fn: Callable[[Any], None]) -> Callable[[Any], None]:
+        def user(fn: Callable[[GuiEvent], object]) -> Callable[[GuiEvent], None]:
             """Only events from a browser: values the server assigns (``client`` None)
             also fire ``on_update`` and must not act again."""
             inner = safe(fn)
 
-            def run(event: Any) -> None:
-                if getattr(event, "client", None) is not None:
+            def run(event: GuiEvent) -> None:
+                if event.client is not None:
                     inner(event)
             return run
 
+        def upload_to(view: str) -> Callable[[GuiEvent], object]:
+            return lambda e: self._on_upload(view, e)
+
         for view, btn in self.uploads.items():
-            btn.on_upload(safe(lambda e, v=view: self._on_upload(v, e)))
+            btn.on_upload(safe(upload_to(view)))
         self.alal.on_update(user(lambda e: self._on_scale()))
         self.other.on_update(user(lambda e: self._on_scale()))
         self.case_id.on_update(user(lambda e: self._on_case_id()))
@@ -437,7 +230,7 @@ class AnnotatePage:
         self.resume_btn.on_click(safe(lambda e: self._on_resume()))
         self.change_btn.on_click(safe(lambda e: self._toggle_intake()))
 
-    # ------------------------------------------------------------------ worker
+    # worker
     def submit(self, fn: Callable[[], None]) -> None:
         """Run ``fn`` on the page's worker thread, in submission order."""
         self._queue.put(fn)
@@ -461,7 +254,7 @@ class AnnotatePage:
                 log.exception("naseview: annotation step failed")
                 self.show_error(f"{type(e).__name__}: {e}")
 
-    # ------------------------------------------------------------------ lifecycle
+    # lifecycle
     def start(self, case_id: str | None = None) -> AnnotationSession:
         """Show the page with a new patient (``in-progress/<id>`` under the work dir)."""
         cid = case_id or default_case_id()
@@ -499,11 +292,12 @@ class AnnotatePage:
             self.session = session
             self.override = None
             self.guidance = None
-            self.case_id.value = session.case_id
+            set_value(self.case_id, session.case_id)
             al = session.scale_mm.get(("al_l", "al_r"))
-            self.alal.value = float(al) if al else 0.0
-            self.other.value = ", ".join(f"{a}-{b}={d:g}" for (a, b), d in
-                                         session.scale_mm.items() if (a, b) != ("al_l", "al_r"))
+            set_value(self.alal, float(al) if al else 0.0)
+            set_value(self.other, ", ".join(f"{a}-{b}={d:g}" for (a, b), d in
+                                            session.scale_mm.items()
+                                            if (a, b) != ("al_l", "al_r")))
             self.view = session.active_view
         self._refresh_resume_list()
         self.show()
@@ -518,20 +312,19 @@ class AnnotatePage:
             self.active = True
             self.panel.visible = True
             self.panel.expand()
-            try:
-                self.server.gui.main_panel.minimize()
-            except Exception:  # older viser without panel placement
-                pass
+            self.server.gui.main_panel.minimize()
             scene = self.server.scene
 
-            @scene.on_click()
-            async def _click(event: Any) -> None:
+            # async: the event loop keeps the clicks in order (viser runs coroutine
+            # callbacks too, though it declares plain ones)
+            @scene.on_click()  # type: ignore[arg-type]
+            async def _click(event: viser.SceneClickEvent) -> None:
                 self._on_scene_click(event)
 
             # a left-drag on the photo draws a box to zoom into instead of orbiting the
             # camera (which would tilt the photo); right-drag pans, the wheel zooms
             @scene.on_rect_select()
-            def _rect(event: Any) -> None:
+            def _rect(event: viser.SceneRectSelectEvent) -> None:
                 try:
                     self.zoom_rect(event.client, event.screen_min, event.screen_max)
                 except Exception:
@@ -557,10 +350,7 @@ class AnnotatePage:
             for h in self._handles.values():
                 h.visible = False
             self.panel.visible = False
-            try:
-                self.server.gui.main_panel.expand()
-            except Exception:
-                pass
+            self.server.gui.main_panel.expand()
         # Bring the cameras back to the face first: from 100 m away, viser's separate
         # look_at / position updates of the app's camera placement end up misaligned.
         eye, target = (0.0, -40.0, 450.0), (0.0, -40.0, 0.0)
@@ -575,9 +365,9 @@ class AnnotatePage:
                 client.camera.near = 1.0
                 client.camera.far = 5000.0
         app = self.app
-        if app is not None and getattr(app, "controller", None) is not None:
+        if app is not None:
             try:
-                app._set_camera(app.controller.baseline)
+                app.reset_camera()
             except Exception:
                 log.debug("naseview: could not reset the app camera", exc_info=True)
 
@@ -587,7 +377,7 @@ class AnnotatePage:
             self._hint_request = -2
             self._hint_cond.notify_all()
 
-    # ------------------------------------------------------------------ intake
+    # intake
     def _toggle_intake(self) -> None:
         self._intake_open = not self._intake_open
         self.submit(self._update_panel)
@@ -596,7 +386,7 @@ class AnnotatePage:
         view = _view_of(label)
         self.submit(lambda: self.set_view(view, fit=True))
 
-    def _on_upload(self, view: str, event: Any) -> None:
+    def _on_upload(self, view: str, event: GuiEvent) -> None:
         f = event.target.value
         self.upload(view, f.content, f.name)
 
@@ -667,7 +457,7 @@ class AnnotatePage:
         assert self.session is not None
         return self.session
 
-    # ------------------------------------------------------------------ photo view
+    # photo view
     def set_view(self, view: str, fit: bool = False) -> None:
         """Show the photo of ``view`` (worker thread)."""
         s = self._need_session()
@@ -697,27 +487,10 @@ class AnnotatePage:
         if fit or changed:
             self.fit_camera()
 
-    def fit_camera(self, clients: Any = None) -> None:
+    def fit_camera(self, clients: Iterable[viser.ClientHandle] | None = None) -> None:
         """Point every browser's camera straight at the photo, fitted to its window."""
-        plane = self.plane or PhotoPlane(4, 3)
-        eye = plane.centre + np.array([0.0, 0.0, CAMERA_DISTANCE])
-        cam0 = self.server.initial_camera
-        cam0.position = tuple(eye)
-        cam0.look_at = tuple(plane.centre)
-        cam0.up = (0.0, 1.0, 0.0)
-        cam0.fov = plane.fov_for(16 / 10)
-        cam0.near = 1.0
-        cam0.far = 4.0 * CAMERA_DISTANCE
-        for client in (clients or self.server.get_clients().values()):
-            c = client.camera
-            aspect = (c.image_width / c.image_height) if c.image_height else 16 / 10
-            with client.atomic():
-                c.fov = plane.fov_for(aspect)
-                c.near = 1.0
-                c.far = 4.0 * CAMERA_DISTANCE
-                c.up_direction = (0.0, 1.0, 0.0)
-                c.position = tuple(eye)
-                c.look_at = tuple(plane.centre)
+        fit_photo(self.server, self.plane or PhotoPlane(4, 3),
+                  clients or self.server.get_clients().values())
 
     def zoom_nose(self) -> None:
         """Frame the clicks and hints of this photo (the nose) with a margin; before
@@ -729,58 +502,20 @@ class AnnotatePage:
         pts = list(s.clicks[self.view].values())
         if self.guidance is not None:
             pts += list(self.guidance.hints(self.view).values())
-        if len(pts) >= 3:
-            P = np.array(pts)
-            lo, hi = P.min(axis=0), P.max(axis=0)
-            pad = 0.18 * max(hi - lo) + 0.03 * max(plane.width_px, plane.height_px)
-            lo, hi = lo - pad, hi + pad
-        else:
-            c = np.array([plane.width_px, plane.height_px]) / 2.0
-            lo, hi = c * 0.4, c * 1.6
-        self._frame_pixels(lo, hi)
+        lo, hi = nose_box(plane, pts)
+        frame_pixels(plane, lo, hi, self.server.get_clients().values())
 
-    def zoom_rect(self, client: Any, screen_min: Any, screen_max: Any) -> None:
+    def zoom_rect(self, client: viser.ClientHandle, screen_min: tuple[float, float],
+                  screen_max: tuple[float, float]) -> None:
         """Zoom ``client``'s view onto a rectangle drawn on the photo (screen 0..1)."""
-        from viser import transforms as vtf
-
         plane = self.plane
         if plane is None or time.monotonic() - self._drag_time < 0.6:
             return                      # the pointer was dragging a click, not a box
-        cam = client.camera
-        aspect = cam.image_width / cam.image_height if cam.image_height else 16 / 10
-        R = vtf.SO3(np.asarray(cam.wxyz)).as_matrix()          # camera -> world (OpenCV)
-        th = np.tan(cam.fov / 2.0)
-        corners = []
-        for u, v in ((screen_min[0], screen_min[1]), (screen_max[0], screen_max[1])):
-            d = R @ np.array([(2 * u - 1) * th * aspect, (2 * v - 1) * th, 1.0])
-            uv = plane.intersect(cam.position, d)
-            if uv is None:
-                return
-            corners.append(uv)
-        lo, hi = np.minimum(*corners), np.maximum(*corners)
-        if max(hi - lo) < 0.02 * max(plane.width_px, plane.height_px):
-            return                                               # a slip, not a box
-        self._frame_pixels(lo, hi, [client])
+        box = screen_box_pixels(client.camera, plane, screen_min, screen_max)
+        if box is not None:
+            frame_pixels(plane, box[0], box[1], [client])
 
-    def _frame_pixels(self, lo: np.ndarray, hi: np.ndarray, clients: Any = None) -> None:
-        """Look straight at the pixel box [lo, hi] of the photo, filling the view."""
-        plane = self.plane
-        if plane is None:
-            return
-        target = plane.to_world(0.5 * (lo + hi))[0]
-        scale = plane.size / max(plane.width_px, plane.height_px)
-        eye = target + np.array([0.0, 0.0, CAMERA_DISTANCE])
-        for client in (clients or self.server.get_clients().values()):
-            c = client.camera
-            aspect = c.image_width / c.image_height if c.image_height else 16 / 10
-            need = max((hi - lo)[1], (hi - lo)[0] / aspect) * scale * 1.05
-            with client.atomic():
-                c.fov = float(2.0 * np.arctan(0.5 * need / CAMERA_DISTANCE))
-                c.up_direction = (0.0, 1.0, 0.0)
-                c.position = tuple(eye)
-                c.look_at = tuple(target)
-
-    # ------------------------------------------------------------------ markers
+    # markers
     def _make_markers(self) -> None:
         """(Re)create the ring meshes for the photo shown (one instance per landmark)."""
         for key in ("clicks", "grab", "hint", "hints"):
@@ -894,7 +629,7 @@ class AnnotatePage:
             return None
         return s.next_target(self.view)
 
-    def _set(self, handle: Any, attr: str, value: Any) -> None:
+    def _set(self, handle: object, attr: str, value: object) -> None:
         """Assign a GUI property only when it changed (each assignment is a message and
         a re-render in every browser)."""
         key = (id(handle), attr)
@@ -904,21 +639,36 @@ class AnnotatePage:
         setattr(handle, attr, value)
 
     def _update_panel(self) -> None:
+        """Bring every panel element up to date with the session (worker thread); only
+        the properties that changed are sent (:meth:`_set`)."""
         s = self.session
         if s is None:
             return
-        done, total = s.progress()
-        S = self._set
-        S(self.progress, "value", round(100.0 * done / max(total, 1), 1))
-        view_done, view_total = s.progress(self.view)
         t = self.target
+        self._panel_status(s)
+        self._panel_intake(s)
+        self._panel_target(t)
+        self._panel_marks(s, t)
+        self._panel_hints()
+        self._panel_reconstruct(s)
+        self._panel_views(s)
+
+    def _panel_status(self, s: AnnotationSession) -> None:
+        """Progress bar and the status line (case, photo, clicks done)."""
+        done, total = s.progress()
+        self._set(self.progress, "value", round(100.0 * done / max(total, 1), 1))
+        view_done, view_total = s.progress(self.view)
         if not s.photos:
-            S(self.status, "content", "**New patient** — upload the four photos (front, "
-                                      "bottom, left and right profile), then mark the "
-                                      "landmarks.")
+            self._set(self.status, "content", "**New patient** — upload the four photos "
+                      "(front, bottom, left and right profile), then mark the landmarks.")
         else:
-            S(self.status, "content", f"**{s.case_id}** · {VIEW_TITLES[self.view]} · "
-                                      f"{view_done}/{view_total} here, {done}/{total} overall")
+            self._set(self.status, "content", f"**{s.case_id}** · {VIEW_TITLES[self.view]} · "
+                      f"{view_done}/{view_total} here, {done}/{total} overall")
+
+    def _panel_intake(self, s: AnnotationSession) -> None:
+        """The intake folder: full while photos are missing (or opened on purpose), one
+        line once the four photos are in."""
+        S = self._set
         names = {v: k for k, v in VIEW_BUTTONS.items()}
         # keep the upload buttons a moment after the last upload: hiding them while the
         # browser still shows its upload notification leaves that notification spinning
@@ -939,50 +689,74 @@ class AnnotatePage:
             f"{v}: downscaled from {p.original_width}×{p.original_height} to "
             f"{p.width}×{p.height} px" for v, p in s.photos.items() if p.downscaled)
           or ("JPEG or PNG; EXIF removed on upload." if len(s.photos) < 4 else ""))
+
+    def _panel_target(self, t: tuple[str, str] | None) -> None:
+        """What to click next, with its description and diagram (or why nothing)."""
+        s = self.session
+        assert s is not None
         if t is None:
             if self.view not in s.photos:
-                S(self.target_md, "content", f"Upload the **{self.view}** photo to mark it.")
+                self._set(self.target_md, "content",
+                          f"Upload the **{self.view}** photo to mark it.")
             else:
-                S(self.target_md, "content", "All landmarks are done. Check them, then "
-                                             "**Reconstruct**.")
-            S(self.diagram, "visible", False)
-        else:
-            v, lid = t
-            where = "" if v == self.view else f" (in the {v} photo)"
-            S(self.target_md, "content", f"### Click **{LANDMARKS[lid].paper}**{where}\n"
-                                         f"{describe(lid, v)}")
-            img = self.diagrams.get(v, lid)
-            if img is not None:
-                if self._sent.get((id(self.diagram), "key")) != t:
-                    self._sent[(id(self.diagram), "key")] = t
-                    self.diagram.image = img
-                S(self.diagram, "visible", True)
-            else:
-                S(self.diagram, "visible", False)
+                self._set(self.target_md, "content", "All landmarks are done. Check them, "
+                                                     "then **Reconstruct**.")
+            self._set(self.diagram, "visible", False)
+            return
+        v, lid = t
+        where = "" if v == self.view else f" (in the {v} photo)"
+        self._set(self.target_md, "content", f"### Click **{LANDMARKS[lid].paper}**{where}\n"
+                                             f"{describe(lid, v)}")
+        img = self.diagrams.get(v, lid)
+        if img is None:
+            self._set(self.diagram, "visible", False)
+            return
+        if self._sent.get((id(self.diagram), "key")) != t:
+            self._sent[(id(self.diagram), "key")] = t
+            self.diagram.image = img
+        self._set(self.diagram, "visible", True)
+
+    def _panel_marks(self, s: AnnotationSession, t: tuple[str, str] | None) -> None:
+        """The landmark list of this photo (done / skipped / to do), Undo and Skip."""
         marks = {"placed": "✓", "skipped": "–", "todo": "·"}
         opts = tuple(f"{marks[s.status(self.view, i)]} {i}" for i in CLICK_ORDER[self.view])
-        S(self.pick, "options", opts)
+        self._set(self.pick, "options", opts)
         if t is not None and t[0] == self.view:
-            S(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])])
-        S(self.undo_btn, "disabled", not s.can_undo)
-        S(self.skip_btn, "disabled", t is None)
+            self._set(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])])
+        self._set(self.undo_btn, "disabled", not s.can_undo)
+        self._set(self.skip_btn, "disabled", t is None)
+
+    def _panel_hints(self) -> None:
+        """The guidance message and up to three suspect clicks."""
         g = self.guidance
         lines = [g.message] if g is not None and g.message else []
         if g is not None and g.suspect:
             lines += [f"⚠ **{i}** in the {v} photo is {r:.0f} px from where the other "
                       "photos put it: check that click" for v, i, r in g.suspect[:3]]
-        S(self.hint_md, "content", "  \n".join(lines))
-        probs = s.problems()
-        S(self.rec_btn, "disabled", bool(probs))
-        S(self.problems_md, "content", "Ready." if not probs else
-          "To do:  \n" + "  \n".join(f"- {p}" for p in probs[:6]))
-        opts = tuple(f"{names[v]} {'✓' if s.progress(v)[0] == s.progress(v)[1] else f'{s.progress(v)[0]}/{s.progress(v)[1]}'}"  # noqa: E501
-                     if v in s.photos else names[v] for v in VIEW_BUTTONS.values())
-        S(self.view_group, "options", opts)
-        S(self.f_marks, "visible", self.view in s.photos)
+        self._set(self.hint_md, "content", "  \n".join(lines))
 
-    # ------------------------------------------------------------------ clicks
-    def _on_scene_click(self, event: Any) -> None:
+    def _panel_reconstruct(self, s: AnnotationSession) -> None:
+        """The Reconstruct button, enabled once nothing is missing, and what is."""
+        probs = s.problems()
+        self._set(self.rec_btn, "disabled", bool(probs))
+        self._set(self.problems_md, "content", "Ready." if not probs else
+                  "To do:  \n" + "  \n".join(f"- {p}" for p in probs[:6]))
+
+    def _panel_views(self, s: AnnotationSession) -> None:
+        """The photo buttons with each photo's progress; the landmark folder."""
+        names = {v: k for k, v in VIEW_BUTTONS.items()}
+
+        def label(v: str) -> str:
+            if v not in s.photos:
+                return names[v]
+            done, asked = s.progress(v)
+            return f"{names[v]} {'✓' if done == asked else f'{done}/{asked}'}"
+
+        self._set(self.view_group, "options", tuple(label(v) for v in VIEW_BUTTONS.values()))
+        self._set(self.f_marks, "visible", self.view in s.photos)
+
+    # clicks
+    def _on_scene_click(self, event: viser.SceneClickEvent) -> None:
         """Event loop: turn the ray into pixels and queue the placement (keeps order)."""
         plane = self.plane
         if not self.active:
@@ -994,7 +768,8 @@ class AnnotatePage:
         view = self.view
         self.submit(lambda: self._place_click(view, uv, event.client))
 
-    def _place_click(self, view: str, uv: np.ndarray | None, client: Any = None) -> None:
+    def _place_click(self, view: str, uv: np.ndarray | None,
+                     client: viser.ClientHandle | None = None) -> None:
         s = self.session
         if s is None or view != self.view or self.plane is None:
             return
@@ -1011,7 +786,6 @@ class AnnotatePage:
         if v != self.view:
             return
         s.place(v, lid, uv)
-        self.last_click_px = uv
         self.events.append((time.monotonic(), f"place {v} {lid}"))
         self.override = None
         self.show_error(None)
@@ -1067,7 +841,8 @@ class AnnotatePage:
             self._redraw()
         self._request_hints()
 
-    async def _on_drag(self, event: Any) -> None:
+    async def _on_drag(self, event: viser.SceneNodeDragEvent[viser.BatchedMeshHandle]
+                       ) -> None:
         """Drag a placed ring: follow the pointer, commit one move at the end."""
         plane = self.plane
         idx = event.instance_index
@@ -1090,16 +865,20 @@ class AnnotatePage:
             return
         uv = plane.to_pixel(end + d[1])
         uv = np.clip(uv, [-0.5, -0.5], [plane.width_px - 0.5, plane.height_px - 0.5])
-        for key, lift in (("clicks", 0.35), ("grab", 0.3)):
-            h = self._handles.get(key)
-            if h is not None:
-                pos = np.array(h.batched_positions, dtype=np.float64)
-                pos[idx] = plane.to_world(uv, lift)[0]
-                h.batched_positions = pos
+        self._move_ring(plane, idx, uv)
         if event.phase == "end":
             self._drag.pop(key, None)
             view = self.view
             self.submit(lambda: self._move(view, lid, uv))
+
+    def _move_ring(self, plane: PhotoPlane, idx: int, uv: np.ndarray) -> None:
+        """Show ring ``idx`` (and the disc that grabs it) at pixel ``uv`` (2,)."""
+        for name, lift in (("clicks", 0.35), ("grab", 0.3)):
+            h = self._handles.get(name)
+            if h is not None:
+                pos = np.array(h.batched_positions, dtype=np.float64)
+                pos[idx] = plane.to_world(uv, lift)[0]
+                h.batched_positions = pos
 
     def _move(self, view: str, lid: str, uv: np.ndarray) -> None:
         s = self.session
@@ -1110,7 +889,7 @@ class AnnotatePage:
         self._redraw()
         self._request_hints()
 
-    # ------------------------------------------------------------------ hints
+    # hints
     def _request_hints(self) -> None:
         s = self.session
         if s is None:
@@ -1140,7 +919,7 @@ class AnnotatePage:
                 self.guidance = g
                 self.submit(self._redraw)
 
-    # ------------------------------------------------------------------ reconstruct
+    # reconstruct
     def reconstruct(self) -> Path:
         """Write the case directory and open it in the app (which reconstructs it)."""
         s = self._need_session()
@@ -1155,8 +934,9 @@ class AnnotatePage:
             self.app.open(out)
         return path
 
-    # ------------------------------------------------------------------ messages
-    def show_error(self, message: str | None, client: Any = None) -> None:
+    # messages
+    def show_error(self, message: str | None,
+                   client: viser.ClientHandle | None = None) -> None:
         """A red line in the panel (``None`` clears it) and a notification."""
         if not message:
             self.error.visible = False
@@ -1165,7 +945,8 @@ class AnnotatePage:
         self.error.visible = True
         self.notify("naseview", message, client, color="red")
 
-    def notify(self, title: str, body: str, client: Any = None, color: str = "blue") -> None:
+    def notify(self, title: str, body: str, client: viser.ClientHandle | None = None,
+               color: NoticeColor = "blue") -> None:
         targets = [client] if client is not None else list(
             self.server.get_clients().values())
         for c in targets:
@@ -1183,11 +964,11 @@ class NewPatientHook:
         patient: the :class:`~naseview.app.patient_mode.PatientMode`.
     """
 
-    def __init__(self, annotate: AnnotatePage, patient: Any) -> None:
+    def __init__(self, annotate: AnnotatePage, patient: PatientMode) -> None:
         self.annotate = annotate
         self.patient = patient
 
-    def run(self, fn: Callable[[], Any]) -> None:
+    def run(self, fn: Callable[[], object]) -> None:
         """Run a button action; errors become a red notification."""
         try:
             fn()
@@ -1202,15 +983,12 @@ class NewPatientHook:
         self.patient._stop_turntable()
 
 
-def install_new_patient(server: Any, app: Any, work_dir: str | Path | None = None,
-                        diagram_model: Any = None) -> NewPatientHook:
+def install_new_patient(server: viser.ViserServer, app: AppHost,
+                        work_dir: str | Path | None = None,
+                        diagram_model: FaceModel | str | None = None) -> NewPatientHook:
     """Hook for :class:`~naseview.app.serve.NaseviewApp`: a "Patient" folder at the top of
     the main panel (New patient, Patient mode, Consultation report) plus the two pages.
     """
-    import viser
-
-    from naseview.app.patient_mode import PatientMode
-
     annotate = AnnotatePage(server, app, work_dir, diagram_model)
     hook = NewPatientHook(annotate, PatientMode(server, app, annotate.work_dir))
     gui = server.gui

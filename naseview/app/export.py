@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from naseview.landmarks import LANDMARKS
+from naseview.measurements import MEASUREMENT_INFO
+from naseview.meshio import mesh_bytes
 
 FRAME = "SPEC: mm, origin glabella g, +x subject's left, +y up, +z anterior"
 MESH_TYPES: tuple[str, ...] = ("stl", "obj", "ply", "glb")
@@ -25,8 +27,6 @@ def mesh_file(V: np.ndarray, F: np.ndarray, file_type: str,
               vertex_ids: np.ndarray | None = None) -> bytes:
     """A mesh file (``stl``, ``obj``, ``ply``, ``glb``) of the face, or of the triangles
     whose corners all lie in ``vertex_ids`` (e.g. the nose), vertices (N, 3) in mm."""
-    from naseview.meshio import mesh_bytes
-
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     if vertex_ids is not None:
@@ -74,25 +74,23 @@ def landmarks_csv(current: Mapping[str, np.ndarray],
 
 
 def _info(name: str) -> tuple[str, str, tuple[float, float] | None]:
-    from naseview.measurements import MEASUREMENT_INFO
-
+    """(unit, description, typical range) of a measurement ("" / None when unknown)."""
     m = MEASUREMENT_INFO.get(name)
     if m is None:
         return "", "", None
     return m.unit, m.description, m.normal
 
 
-def measurement_rows(original: Mapping[str, float], simulated: Mapping[str, float]
-                     ) -> list[tuple[str, str, float | None, float | None]]:
-    """(name, unit, original, simulated): clinical measurements first, then the paper's
-    landmark distances, then any other names."""
-    from naseview.measurements import MEASUREMENT_INFO
-
+def export_rows(original: Mapping[str, float], simulated: Mapping[str, float]
+                ) -> list[tuple[str, str, float | None, float | None]]:
+    """(name, unit, original, simulated) of every measurement in the exports: clinical
+    measurements first, then the paper's landmark distances, then any other names (the
+    report's table is :func:`naseview.report.measurement_rows`)."""
     known = [n for n in MEASUREMENT_INFO if n in original or n in simulated]
     names = [n for n in known if "-" not in n] + [n for n in known if "-" in n]
     names += [n for n in list(original) + list(simulated) if n not in names]
     seen: set[str] = set()
-    rows = []
+    rows: list[tuple[str, str, float | None, float | None]] = []
     for n in names:
         if n in seen:
             continue
@@ -105,7 +103,7 @@ def measurements_json(original: Mapping[str, float], simulated: Mapping[str, flo
                       case_id: str = "") -> bytes:
     """JSON: ``{name: {"unit", "original", "simulated", "change", "typical"}}``."""
     out: dict[str, Any] = {}
-    for n, unit, o, s in measurement_rows(original, simulated):
+    for n, unit, o, s in export_rows(original, simulated):
         out[n] = {"unit": unit, "original": o, "simulated": s,
                   "change": None if o is None or s is None else s - o,
                   "typical": _info(n)[2], "description": _info(n)[1]}
@@ -124,7 +122,7 @@ def measurements_csv(original: Mapping[str, float], simulated: Mapping[str, floa
     def f(x: float | None) -> str:
         return "" if x is None else f"{x:.4f}"
 
-    for n, unit, o, s in measurement_rows(original, simulated):
+    for n, unit, o, s in export_rows(original, simulated):
         rng = _info(n)[2]
         w.writerow([n, unit, f(o), f(s), f(None if o is None or s is None else s - o),
                     f(rng[0] if rng else None), f(rng[1] if rng else None)])
@@ -138,7 +136,7 @@ def measurements_markdown(original: Mapping[str, float],
     flagged with a dagger. ``which``: ``"clinical"`` (named measurements), ``"distances"``
     (the paper's landmark distances ``a-b``) or ``"all"``."""
     lines = ["| measurement | orig. | sim. | change |", "|:--|--:|--:|--:|"]
-    rows = measurement_rows(original, simulated)
+    rows = export_rows(original, simulated)
     if which == "clinical":
         rows = [r for r in rows if "-" not in r[0]]
     elif which == "distances":

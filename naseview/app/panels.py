@@ -1,44 +1,63 @@
 """GUI panels of the app (``server.gui``, shared by every browser on the server).
 
-:class:`Panels` builds the controls and forwards every action to the app object (see
-:class:`naseview.app.serve.NaseviewApp`): status and progress, editing (undo / redo /
-reset, symmetric mode), the measurements table, before / after, display toggles,
-parameters of stages 2 and 3, the photos with reprojected landmarks and residuals, and
-exports. Rendering helpers (:func:`annotate_photo`, :func:`residual_markdown`) are pure.
+:class:`Panels` builds the controls and forwards every action to the app object
+(:class:`PanelActions`, i.e. :class:`naseview.app.serve.NaseviewApp`): status and progress,
+editing (undo / redo / reset, symmetric mode), the measurements table, before / after,
+display toggles, parameters of stages 2 and 3 (paper §3.3-3.4), the photos with
+reprojected landmarks and residuals (stage 1, paper §3.2, eq. 1), and exports. Rendering
+helpers (:func:`annotate_photo`, :func:`residual_markdown`) are pure.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import fields
-from typing import Any
+from typing import Any, Protocol
 
+import cv2
 import numpy as np
+import viser
 
 from naseview.app.export import MESH_TYPES, measurements_markdown
+from naseview.app.gui_value import set_value
 from naseview.app.scene import colorbar_image
 from naseview.camera import Camera
+from naseview.errors import NaseviewError
+from naseview.landmarks import VIEWS
+from naseview.stage1_landmarks import SfmParams
+from naseview.stage2_curves import CurveParams
+from naseview.stage3_mesh import RefineParams
 
 log = logging.getLogger(__name__)
 
-RESIDUAL_FLAG_PX = 5.0
-"""A click is flagged when its residual exceeds this (px) and 4x the median residual
-(the rule of stage 1's suspect clicks, :class:`naseview.stage1_landmarks.SfmParams`)."""
+PHOTO_FLAG_MIN_PX = 5.0
+"""The photo panel's own floor (px) for marking a click with a yellow ring: a click is
+marked when its residual exceeds this and :data:`PHOTO_FLAG_FACTOR` x the median
+residual. Deliberately not stage 1's suspect rule (floor
+:attr:`naseview.stage1_landmarks.SfmParams.suspect_min_px`, 3 px): the panel lists stage
+1's suspect clicks separately ("Stage 1 flagged"), and marks on the photo only the larger
+residuals worth checking by eye."""
+
+PHOTO_FLAG_FACTOR = SfmParams().suspect_factor
+"""Multiple of the median residual above which a click is marked: stage 1's
+:attr:`~naseview.stage1_landmarks.SfmParams.suspect_factor` (4)."""
 
 
 def flag_threshold(residuals: Mapping[str, Mapping[str, float]],
-                   floor_px: float = RESIDUAL_FLAG_PX, factor: float = 4.0) -> float:
+                   floor_px: float = PHOTO_FLAG_MIN_PX,
+                   factor: float = PHOTO_FLAG_FACTOR) -> float:
     """Residual (px) above which a click is flagged: max(floor, factor x median)."""
     vals = [v for r in residuals.values() for v in r.values()]
     return max(floor_px, factor * float(np.median(vals))) if vals else floor_px
+
 
 STAGE2_FIELDS: tuple[tuple[str, str], ...] = (
     ("side_w_ratio", "side-curve w2/w1"), ("side_h_ratio", "side-curve h2/h1"),
     ("hue_tol", "background hue tol."), ("sat_tol", "background sat. tol."),
     ("val_tol", "background value tol."), ("dark_ratio", "nostril dark ratio"),
-    ("closing_px", "nostril closing (px)"), ("path_min_edge", "min. edge strength"),
-    ("corridor_frac", "edge corridor frac."), ("lift_weight", "lift weight"),
+    ("closing_px", "nostril closing (px)"), ("corridor_frac", "edge corridor frac."),
+    ("lift_weight", "lift weight"),
 )
 """Stage 2 (:class:`naseview.stage2_curves.params.CurveParams`) fields in the parameter panel."""
 
@@ -52,7 +71,6 @@ STAGE3_FIELDS: tuple[tuple[str, str], ...] = (
 """Stage 3 (:class:`naseview.stage3_mesh.RefineParams`) fields in the parameter panel."""
 
 
-# ---------------------------------------------------------------------------- pure helpers
 def click_residuals(clicks: Mapping[str, np.ndarray], cam: Camera,
                     landmarks: Mapping[str, np.ndarray]) -> dict[str, float]:
     """Reprojection residual (px) of each click of one view whose landmark is in 3D."""
@@ -67,13 +85,11 @@ def click_residuals(clicks: Mapping[str, np.ndarray], cam: Camera,
 def annotate_photo(image_bgr: np.ndarray, cam: Camera | None,
                    clicks: Mapping[str, np.ndarray], landmarks: Mapping[str, np.ndarray],
                    curves: Mapping[str, np.ndarray], width: int = 560,
-                   flag_px: float = RESIDUAL_FLAG_PX, crop: bool = True) -> np.ndarray:
+                   flag_px: float = PHOTO_FLAG_MIN_PX, crop: bool = True) -> np.ndarray:
     """A photo with the clicks (white rings), the reprojected landmarks (red dots, yellow
     ring + id when the residual exceeds ``flag_px``), the residual vectors and the
     reprojected curves (green); cropped to the clicks (``crop``) and returned as
     (h, ``width``, 3) uint8 RGB."""
-    import cv2
-
     img = image_bgr.copy()
     h0, w0 = img.shape[:2]
     s = width / float(w0) * (2.0 if crop else 1.0)
@@ -138,13 +154,26 @@ def residual_markdown(residuals: Mapping[str, Mapping[str, float]],
     return "\n\n".join(lines)
 
 
-# ---------------------------------------------------------------------------- panels
+class PanelActions(Protocol):
+    """What the panel's controls call (:class:`naseview.app.serve.NaseviewApp`)."""
+
+    def undo(self) -> None: ...
+    def redo(self) -> None: ...
+    def reset(self) -> None: ...
+    def set_symmetric(self, on: bool) -> None: ...
+    def set_visible(self, **kw: bool) -> None: ...
+    def set_view(self, **kw: bool) -> None: ...
+    def show_photo(self, view: str) -> None: ...
+    def recompute(self) -> None: ...
+    def params_changed(self, stage: str) -> None: ...
+    def download(self, client: viser.ClientHandle | None, kind: str, fmt: str,
+                 **kw: str) -> None: ...
+
+
 class Panels:
-    """The control panel. ``app`` provides the actions (see :class:`NaseviewApp`)."""
+    """The control panel. ``app`` provides the actions (:class:`PanelActions`)."""
 
-    def __init__(self, server: Any, app: Any) -> None:
-        import viser
-
+    def __init__(self, server: viser.ViserServer, app: PanelActions) -> None:
         self.server = server
         self.app = app
         gui = server.gui
@@ -192,8 +221,8 @@ class Panels:
         with gui.add_folder("Parameters", expand_by_default=False):
             self.param_info = gui.add_markdown(
                 "Changing a value recomputes stages 2-3 in the background.")
-            self.params2: dict[str, Any] = {}
-            self.params3: dict[str, Any] = {}
+            self.params2: dict[str, viser.GuiNumberHandle[Any]] = {}
+            self.params3: dict[str, viser.GuiNumberHandle[Any]] = {}
             self.interactive_iters = gui.add_number(
                 "drag ARAP iterations", 6, min=1, max=100, step=1,
                 hint="ARAP iterations per update during a drag (a full solve follows)")
@@ -201,7 +230,7 @@ class Panels:
             self.param_folder3 = gui.add_folder("Stage 3: ARAP and smoothing")
             self.recompute = gui.add_button("Recompute now", icon=viser.Icon.REFRESH)
         with gui.add_folder("Photos", expand_by_default=False):
-            self.photo_view = gui.add_dropdown("View", ("front", "left", "right", "bottom"))
+            self.photo_view = gui.add_dropdown("View", VIEWS)
             self.photo = gui.add_image(np.full((8, 8, 3), 255, np.uint8), visible=False)
             self.residuals = gui.add_markdown("No photos.")
         with gui.add_folder("Export", expand_by_default=False):
@@ -218,12 +247,13 @@ class Panels:
         self.credit = gui.add_markdown("")
         self._wire()
 
-    # ------------------------------------------------------------------ wiring
+    # wiring
     def _wire(self) -> None:
         app = self.app
 
-        def safe(fn: Any) -> Any:
-            def run(event: Any) -> None:
+        def safe(fn: Callable[[viser.GuiEvent[Any]], None]
+                 ) -> Callable[[viser.GuiEvent[Any]], None]:
+            def run(event: viser.GuiEvent[Any]) -> None:
                 try:
                     fn(event)
                 except Exception as e:  # keep the server up, show the error
@@ -250,47 +280,63 @@ class Panels:
         self.photo_view.on_update(safe(lambda e: app.show_photo(self.photo_view.value)))
         self.recompute.on_click(safe(lambda e: app.recompute()))
         self.interactive_iters.on_update(safe(lambda e: app.params_changed("app")))
+        def mesh_download(file_type: str) -> Callable[[viser.GuiEvent[Any]], None]:
+            return lambda e: app.download(e.client, "mesh", file_type,
+                                          part=self.export_part.value,
+                                          state=self.export_state.value)
+
         for t, b in self.mesh_buttons.items():
-            b.on_click(safe(lambda e, t=t: app.download(
-                e.client, "mesh", t, part=self.export_part.value,
-                state=self.export_state.value)))
+            b.on_click(safe(mesh_download(t)))
         self.lm_json.on_click(safe(lambda e: app.download(e.client, "landmarks", "json")))
         self.lm_csv.on_click(safe(lambda e: app.download(e.client, "landmarks", "csv")))
         self.meas_json.on_click(safe(lambda e: app.download(e.client, "measurements", "json")))
         self.meas_csv.on_click(safe(lambda e: app.download(e.client, "measurements", "csv")))
         self.session.on_click(safe(lambda e: app.download(e.client, "session", "json")))
 
-    def build_params(self, curve_params: Any | None, refine_params: Any | None) -> None:
-        """Number inputs bound to the stage 2 / stage 3 parameter dataclasses."""
-        gui = self.server.gui
+    def build_params(self, curve_params: CurveParams, refine_params: RefineParams) -> None:
+        """Number inputs bound to the stage 2 / stage 3 parameter dataclasses.
+
+        Raises:
+            NaseviewError: a field of :data:`STAGE2_FIELDS` / :data:`STAGE3_FIELDS` that
+                the params class does not have.
+        """
         for store, folder, obj, spec, stage in (
                 (self.params2, self.param_folder2, curve_params, STAGE2_FIELDS, "curves"),
                 (self.params3, self.param_folder3, refine_params, STAGE3_FIELDS, "refine")):
             for h in store.values():
                 h.remove()
             store.clear()
-            if obj is None:
-                continue
-            names = {f.name for f in fields(obj)}
             with folder:
-                for name, label in spec:
-                    if name not in names:
-                        continue
-                    v = getattr(obj, name)
-                    if isinstance(v, bool) or not isinstance(v, (int, float)):
-                        continue
-                    step = 1 if isinstance(v, int) else _step(float(v))
-                    h = gui.add_number(label, v, min=0, step=step,
-                                       hint=f"{type(obj).__name__}.{name}")
-                    h.on_update(lambda e, stage=stage: self.app.params_changed(stage))
-                    store[name] = h
+                store.update(self._param_inputs(obj, spec, stage))
+
+    def _param_inputs(self, obj: CurveParams | RefineParams,
+                      spec: tuple[tuple[str, str], ...], stage: str
+                      ) -> dict[str, viser.GuiNumberHandle[Any]]:
+        """One number input per numeric field of ``spec`` (name, label) of ``obj``; a
+        change calls ``app.params_changed(stage)``."""
+        names = {f.name for f in fields(obj)}
+        unknown = [name for name, _ in spec if name not in names]
+        if unknown:
+            raise NaseviewError(f"panel parameters {', '.join(unknown)}: not fields of "
+                                f"{type(obj).__name__}; fix the panel's field table")
+        out: dict[str, viser.GuiNumberHandle[Any]] = {}
+        for name, label in spec:
+            v = getattr(obj, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                continue
+            step = 1 if isinstance(v, int) else _step(float(v))
+            h = self.server.gui.add_number(label, v, min=0, step=step,
+                                           hint=f"{type(obj).__name__}.{name}")
+            h.on_update(lambda e: self.app.params_changed(stage))
+            out[name] = h
+        return out
 
     def param_values(self) -> tuple[dict[str, Any], dict[str, Any]]:
         """Current values of the stage 2 and stage 3 inputs."""
         return ({k: h.value for k, h in self.params2.items()},
                 {k: h.value for k, h in self.params3.items()})
 
-    # ------------------------------------------------------------------ status
+    # status
     def set_status(self, text: str) -> None:
         self.status.content = text
 
@@ -299,7 +345,7 @@ class Panels:
         if fraction is None:
             self.progress.visible = False
             return
-        self.progress.value = float(np.clip(fraction * 100.0, 0.0, 100.0))
+        set_value(self.progress, float(np.clip(fraction * 100.0, 0.0, 100.0)))
         self.progress.visible = True
 
     def show_error(self, message: str | None) -> None:

@@ -8,7 +8,8 @@ reconstruction and the simulation, large 3D labels with the key measurements (be
 after) and the sentence "A simulation is not a promised outcome." A button writes the
 consultation report (:mod:`naseview.report`) and downloads it.
 
-Leaving patient mode restores the app's display settings from its panel.
+Leaving patient mode restores the app's display settings from its panel. The before /
+after blend is linear between the reconstruction (stage 3, paper §3.4) and its edit.
 """
 
 from __future__ import annotations
@@ -17,11 +18,18 @@ import logging
 import math
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Literal
 
 import numpy as np
+import viser
 
+from naseview.app.gui_value import set_value
+from naseview.app.host import AppHost
+from naseview.app.scene import FaceScene
+from naseview.editing.baseline import Baseline
+from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
 from naseview.report import DISCLAIMER, ReportData, measurement_rows, write_report
 
@@ -80,15 +88,13 @@ class PatientMode:
         work_dir: where reports are written (``<work_dir>/<case id>/report/``).
     """
 
-    def __init__(self, server: Any, app: Any, work_dir: str | Path) -> None:
-        import viser
-
+    def __init__(self, server: viser.ViserServer, app: AppHost, work_dir: str | Path) -> None:
         self.server = server
         self.app = app
         self.work_dir = Path(work_dir)
         self.active = False
         self.t = 1.0
-        self._labels: list[Any] = []
+        self._labels: list[viser.LabelHandle] = []
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.RLock()
@@ -114,8 +120,8 @@ class PatientMode:
         self.report_btn.on_click(lambda e: self._guard(lambda: self.download_report(e.client)))
         self.exit_btn.on_click(lambda e: self._guard(self.exit))
 
-    # ------------------------------------------------------------------ helpers
-    def _guard(self, fn: Any) -> None:
+    # helpers
+    def _guard(self, fn: Callable[[], object]) -> None:
         try:
             fn()
         except NaseviewError as e:
@@ -124,17 +130,18 @@ class PatientMode:
             log.exception("naseview: patient mode action failed")
             self._notify(f"{type(e).__name__}: {e}", "red")
 
-    def _notify(self, body: str, color: str = "blue", client: Any = None) -> None:
+    def _notify(self, body: str, color: Literal["blue", "red", "green"] = "blue",
+                client: viser.ClientHandle | None = None) -> None:
         for c in ([client] if client is not None else self.server.get_clients().values()):
             try:
                 c.add_notification("naseview", body, color=color, auto_close_seconds=6.0)
             except Exception:
                 pass
 
-    def _state(self) -> tuple[Any, Any, Any]:
-        app = self.app
-        ctl = getattr(app, "controller", None)
-        scene = getattr(app, "scene", None)
+    def _state(self) -> tuple[EditController, FaceScene, Baseline]:
+        """The app's editor, scene and baseline (raises when no case is open)."""
+        ctl = self.app.controller
+        scene = self.app.scene
         if ctl is None or scene is None:
             raise NaseviewError("no reconstruction is open yet; open a case (or finish a "
                                 "new patient) before patient mode")
@@ -146,7 +153,7 @@ class PatientMode:
         edited = not np.array_equal(sim.V, base.V)
         return dict(base.measurements), (dict(sim.measurements) if edited else None)
 
-    # ------------------------------------------------------------------ enter / exit
+    # enter / exit
     def enter(self) -> None:
         """Hide the technical overlays and the panel; show the presentation."""
         ctl, scene, base = self._state()
@@ -155,14 +162,11 @@ class PatientMode:
             scene.set_visible(labels=False, curves=False, ad_landmarks=False, cameras=False,
                               landmarks=False, highlight=False)
             scene.set_view(colormap=False, original=False, overlay=False)
-            try:
-                self.server.gui.main_panel.minimize()
-            except Exception:
-                pass
+            self.server.gui.main_panel.minimize()
             self.panel.visible = True
             self.panel.expand()
             before, after = self._measurements()
-            cid = getattr(self.app, "case_id", "")
+            cid = self.app.case_id
             self.title.content = (f"<div style='font-size:20px;font-weight:600'>{cid}</div>"
                                   + ("<div style='color:#666'>Drag the slider to compare "
                                      "before and after</div>" if after else
@@ -172,7 +176,7 @@ class PatientMode:
             self.table.content = self._table_html(before, after)
             self._make_labels(before, after)
             self.t = 1.0
-            self.slider.value = 1.0
+            set_value(self.slider, 1.0)
         self.set_blend(1.0)
         self._turntable_changed()
 
@@ -190,40 +194,27 @@ class PatientMode:
                     pass
             self._labels = []
             self.panel.visible = False
-            try:
-                self.server.gui.main_panel.expand()
-            except Exception:
-                pass
-        app = self.app
-        scene = getattr(app, "scene", None)
-        p = getattr(app, "panels", None)
-        if scene is not None and p is not None:
-            scene.set_visible(labels=p.labels.value, curves=p.show_curves.value,
-                              ad_landmarks=p.show_ad.value, cameras=p.show_cameras.value,
-                              landmarks=p.show_landmarks.value, highlight=p.highlight.value)
-            scene.set_view(colormap=p.colormap.value, original=p.show_original.value,
-                           overlay=p.overlay.value)
-        ctl = getattr(app, "controller", None)
-        if ctl is not None:
-            try:
-                app._set_camera(ctl.baseline)
-            except Exception:
-                log.debug("naseview: camera reset failed", exc_info=True)
+            self.server.gui.main_panel.expand()
+        self.app.apply_display()
+        try:
+            self.app.reset_camera()
+        except Exception:
+            log.debug("naseview: camera reset failed", exc_info=True)
 
-    # ------------------------------------------------------------------ before / after
+    # before / after
     def set_blend(self, t: float) -> None:
         """Show the nose ``t`` of the way from before (0) to after (1)."""
         ctl, scene, base = self._state()
         self.t = float(np.clip(t, 0.0, 1.0))
         if abs(float(self.slider.value) - self.t) > 1e-9:
-            self.slider.value = self.t      # its callback calls back here: same t, no-op
+            set_value(self.slider, self.t)  # its callback calls back here: same t, no-op
         V = blend(base.V, ctl.simulation.V, self.t)
         with self.server.atomic():
             scene.nose.vertices = V[scene.nose_ids]
             if np.any(ctl.simulation.V[scene.rest_ids] != base.V[scene.rest_ids]):
                 scene.rest.vertices = V[scene.rest_ids]
 
-    # ------------------------------------------------------------------ labels
+    # labels
     def _table_html(self, before: dict[str, float], after: dict[str, float] | None) -> str:
         rows = []
         for name, title in KEY_MEASUREMENTS:
@@ -273,7 +264,7 @@ class PatientMode:
                 f"/patient/label{i}", text, position=tuple(p), font_screen_scale=1.5,
                 anchor="center-left"))
 
-    # ------------------------------------------------------------------ turntable
+    # turntable
     def _turntable_changed(self) -> None:
         if self.active and self.turntable.value:
             self._start_turntable()
@@ -312,7 +303,7 @@ class PatientMode:
             self._thread.join(timeout=2.0)
             self._thread = None
 
-    # ------------------------------------------------------------------ report
+    # report
     def report_data(self) -> ReportData:
         """The consultation report of the current case (before = reconstruction, after =
         the simulation when it differs)."""
@@ -321,7 +312,7 @@ class PatientMode:
         edited = not np.array_equal(sim.V, base.V)
         app = self.app
         photos: dict[str, np.ndarray] = {}
-        case = getattr(app, "case", None)
+        case = app.case
         if case is not None:
             for v in case.views:
                 try:
@@ -329,12 +320,12 @@ class PatientMode:
                 except NaseviewError:
                     pass
         return ReportData(
-            case_id=str(getattr(app, "case_id", "case")), V_before=base.V, F=base.F,
+            case_id=str(app.case_id), V_before=base.V, F=base.F,
             nose_ids=base.nose_ids, measurements_before=dict(base.measurements),
             V_after=sim.V if edited else None,
             measurements_after=dict(sim.measurements) if edited else None,
-            photos=photos, notes=getattr(case, "notes", "") if case is not None else "",
-            credit=str(getattr(app, "credit", "") or ""))
+            photos=photos, notes=case.notes if case is not None else "",
+            credit=str(app.credit or ""))
 
     def write_report(self, deidentified: bool | None = None) -> Path:
         """Write ``<work_dir>/<case id>/report/report[-deidentified].html`` (+ PNGs)."""
@@ -345,7 +336,7 @@ class PatientMode:
         return write_report(data, self.work_dir / (safe or "case") / "report" / name,
                             deidentified=bool(deid))
 
-    def download_report(self, client: Any = None) -> None:
+    def download_report(self, client: viser.ClientHandle | None = None) -> None:
         """Write the report in the background and send the HTML to the browser."""
         self._state()
         self._notify("Preparing the consultation report…", "blue", client)

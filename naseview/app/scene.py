@@ -6,22 +6,30 @@ touching the nose region; its outer ring never moves, so there is no crack). The
 landmarks are two batched sphere meshes: the editable ones (inside the nose region) take
 ``on_drag``; the others are drawn grey and fixed.
 
-Pure helpers (:func:`split_region`, :func:`displacement_colors`, :func:`colorbar_image`,
-:func:`camera_pose`) carry the geometry; :class:`FaceScene` owns the viser handles.
+Pure helpers (:func:`split_region`, :func:`diverging_colors`, :func:`colorbar_image`,
+:func:`camera_pose`) carry the geometry; :class:`FaceScene` owns the viser handles. The
+colour map shows the signed displacement of the simulation (stage 3's ARAP edit, paper
+§3.4) along the surface normal.
 """
 
 from __future__ import annotations
 
+import json
 import logging
+import struct
 import threading
 import time
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Iterable, Mapping, Sequence
 
+import cv2
+import igl
 import numpy as np
+import viser
+from viser import transforms as vtf
 
 from naseview.camera import Camera
-from naseview.editing.state import EditController, Landmarks, Simulation
+from naseview.editing.baseline import Landmarks, Simulation
+from naseview.editing.controller import EditController
 from naseview.geometry.mesh import vertex_normals
 from naseview.landmarks import CURVE_NAMES, LANDMARKS
 
@@ -40,7 +48,6 @@ AD_LANDMARK = (40, 110, 220)
 SPHERE_RADIUS_MM = 1.1
 
 
-# ---------------------------------------------------------------------------- geometry
 def split_region(F: np.ndarray, region: np.ndarray, n_vertices: int
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Split a face mesh into the triangles touching a region and the rest.
@@ -121,8 +128,6 @@ def hole_caps(V: np.ndarray, F: np.ndarray, keep_out: np.ndarray | None = None,
         ``(Vc, Fc)``: (n, 3) cap vertices (loop vertices copied, then centres), (m, 3)
         triangles; empty when the mesh has no such hole.
     """
-    import igl
-
     F = np.ascontiguousarray(F, dtype=np.int64)
     loops = [np.asarray(lp, dtype=np.int64) for lp in igl.boundary_loop_all(F)]
     if len(loops) < 2:
@@ -184,16 +189,17 @@ def vertex_color_glb(V: np.ndarray, F: np.ndarray, colors: np.ndarray) -> bytes:
     """A GLB of a mesh with per-vertex sRGB ``colors`` (N, 3) uint8 and smooth normals,
     with a matte, non-metallic material so it shades like viser's simple meshes (glTF's
     default material is fully metallic)."""
-    import json
-    import struct
-
-    import trimesh
+    import trimesh  # lazy: importing trimesh takes ~0.5 s and every `naseview` command
+    #                 imports this module (through the CLI); only the colour map needs it
 
     mesh = trimesh.Trimesh(np.asarray(V, np.float64), np.asarray(F, np.int64), process=False)
     linear = np.round(255.0 * (np.asarray(colors) / 255.0) ** 2.2).astype(np.uint8)
-    mesh.visual.vertex_colors = np.column_stack([linear, np.full(len(linear), 255, np.uint8)])
+    visual = mesh.visual
+    assert isinstance(visual, trimesh.visual.ColorVisuals)  # a new mesh: plain colours
+    visual.vertex_colors = np.column_stack([linear, np.full(len(linear), 255, np.uint8)])
     _ = mesh.vertex_normals                     # cached normals are exported
     glb = mesh.export(file_type="glb")
+    assert isinstance(glb, bytes)
     n = struct.unpack("<I", glb[12:16])[0]
     doc = json.loads(glb[20:20 + n])
     rest = glb[20 + n:]
@@ -227,8 +233,6 @@ def nice_limit(max_abs_mm: float) -> float:
 def colorbar_image(limit: float, width: int = 300, height: int = 54,
                    neutral: tuple[int, int, int] | None = None) -> np.ndarray:
     """(H, W, 3) uint8 RGB colour bar with tick labels for :func:`diverging_colors`."""
-    import cv2
-
     img = np.full((height, width, 3), 255, dtype=np.uint8)
     pad = 18
     bar = diverging_colors(np.linspace(-limit, limit, width - 2 * pad), limit, neutral)
@@ -249,8 +253,6 @@ def colorbar_image(limit: float, width: int = 300, height: int = 54,
 def camera_pose(cam: Camera) -> tuple[np.ndarray, np.ndarray]:
     """(wxyz (4,), position (3,)) of a SPEC camera for viser (OpenCV axes, camera to
     world)."""
-    from viser import transforms as vtf
-
     return vtf.SO3.from_matrix(cam.R.T).wxyz, cam.center
 
 
@@ -263,14 +265,21 @@ def curve_segments(points: np.ndarray, closed: bool) -> np.ndarray:
     return np.stack([Q[:-1], Q[1:]], axis=1)
 
 
+def _show(handles: Iterable[viser.SceneNodeHandle | None], visible: bool) -> None:
+    """Set ``visible`` on every handle that exists."""
+    for h in handles:
+        if h is not None:
+            h.visible = visible
+
+
 def _icosphere(radius: float) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
+    """(V, 3) vertices and (F, 3) faces of an icosphere (2 subdivisions) of ``radius``."""
+    import trimesh  # lazy: see vertex_color_glb
 
     s = trimesh.creation.icosphere(subdivisions=2, radius=radius)
     return np.asarray(s.vertices), np.asarray(s.faces)
 
 
-# ---------------------------------------------------------------------------- the scene
 class FaceScene:
     """Viser handles of one baseline, updated from an :class:`EditController`.
 
@@ -285,12 +294,12 @@ class FaceScene:
             mesh is every triangle touching them.
     """
 
-    def __init__(self, server: Any, controller: EditController, editable: Sequence[str],
-                 cameras: Mapping[str, Camera] | None = None,
+    def __init__(self, server: viser.ViserServer, controller: EditController,
+                 editable: Sequence[str], cameras: Mapping[str, Camera] | None = None,
                  photos: Mapping[str, np.ndarray] | None = None,
                  region: np.ndarray | None = None) -> None:
         self.server = server
-        self.scene = scene = server.scene
+        self.scene = server.scene
         self.ctl = controller
         base = controller.baseline
         self.base = base
@@ -298,9 +307,8 @@ class FaceScene:
         self.fixed = [i for i in base.landmarks if i not in self.editable]
         self._lock = threading.Lock()
         self.region = np.asarray(base.nose_ids if region is None else region, np.int64)
-        self.nose_ids, nose_F, self.rest_ids, rest_F = split_region(
+        self.nose_ids, self.nose_F, self.rest_ids, rest_F = split_region(
             base.F, self.region, len(base.V))
-        self._nose_only = np.setdiff1d(self.nose_ids, self.rest_ids)
         self.normals = vertex_normals(base.V, base.F)
         self.show_colormap = False
         self.show_original = False
@@ -309,24 +317,50 @@ class FaceScene:
         self.colormap_limit = 0.0
         self._last_colormap = 0.0
         self._active: dict[int, tuple[str, np.ndarray]] = {}
-        self.updates = 0
-        self.last_update_seconds = 0.0
 
-        scene.set_up_direction("+y")
+        self.scene.set_up_direction("+y")
+        self.caps, self.rest, self.nose = self._add_face(rest_F)
+        self.original = self._add_original()
+        self.colormap: viser.GlbHandle | None = None
+        self.outline = self._add_outline()
+        lms = controller.landmarks
+        self.spheres, self.fixed_spheres = self._add_spheres(lms)
+        self.labels = {
+            i: self.scene.add_label(f"/labels/{i}",
+                                    LANDMARKS[i].paper if i in LANDMARKS else i,
+                                    position=lms[i] + np.array([0.0, 1.6, 0.0]),
+                                    visible=False, font_screen_scale=0.8,
+                                    anchor="bottom-center")
+            for i in base.landmarks}
+        self.curves = self._add_curves()
+        self.ad = self._add_ad_landmarks()
+        self.frustums: dict[str, viser.CameraFrustumHandle] = {}
+        self._camera_labels: list[viser.LabelHandle] = []
+        self._add_cameras(cameras or {}, photos or {})
+        controller.on_simulation.append(self.update)
+        controller.on_landmarks.append(self.set_landmarks)
+
+    def _add_face(self, rest_F: np.ndarray) -> tuple[viser.MeshHandle | None,
+                                                     viser.MeshHandle, viser.MeshHandle]:
+        """Hole caps, the static rest of the face and the live nose mesh."""
+        base = self.base
         # dark recessed caps in the eye and mouth openings (not in the moving part)
         cv, cf = hole_caps(base.V, base.F, keep_out=self.nose_ids)
-        self.caps = scene.add_mesh_simple("/face/caps", cv, cf, color=INSIDE, side="double",
+        caps = self.scene.add_mesh_simple("/face/caps", cv, cf, color=INSIDE, side="double",
                                           cast_shadow=False, receive_shadow=False) \
             if len(cf) else None
-        self.rest = scene.add_mesh_simple("/face/rest", base.V[self.rest_ids], rest_F,
+        rest = self.scene.add_mesh_simple("/face/rest", base.V[self.rest_ids], rest_F,
                                           color=SKIN, flat_shading=False, side="front",
                                           cast_shadow=False, receive_shadow=False)
-        self.nose_F = nose_F
-        self.nose = scene.add_mesh_simple("/face/nose", base.V[self.nose_ids], nose_F,
+        nose = self.scene.add_mesh_simple("/face/nose", base.V[self.nose_ids], self.nose_F,
                                           color=NOSE, flat_shading=False, side="double",
                                           cast_shadow=False, receive_shadow=False)
-        # the original nose (triangles inside the nose region), lifted 0.08 mm along the
-        # normals so it does not z-fight where nothing changed
+        return caps, rest, nose
+
+    def _add_original(self) -> viser.MeshHandle:
+        """The original nose (triangles inside the nose region), lifted 0.08 mm along the
+        normals so it does not z-fight where nothing changed; hidden until asked for."""
+        base = self.base
         inside = np.zeros(len(base.V), dtype=bool)
         inside[np.asarray(base.nose_ids, np.int64)] = True
         gF = np.asarray(base.F, np.int64)[inside[base.F].all(axis=1)]
@@ -334,75 +368,84 @@ class FaceScene:
             gF = np.asarray(base.F, np.int64)[inside[base.F].any(axis=1)]
         g_ids = np.unique(gF)
         ghost = base.V[g_ids] + 0.08 * self.normals[g_ids]
-        self.original = scene.add_mesh_simple(
+        return self.scene.add_mesh_simple(
             "/face/original", ghost, np.searchsorted(g_ids, gF), color=ORIGINAL, opacity=0.3,
             flat_shading=False, side="front", visible=False, cast_shadow=False,
             receive_shadow=False)
-        self.colormap: Any = None
+
+    def _add_outline(self) -> viser.LineSegmentsHandle | None:
+        """The smoothed outline of the nose region (None when it has no border)."""
+        base = self.base
         edges = region_outline(base.F, base.nose_ids, len(base.V))
         self._outline_ids, self._outline_S = outline_smoother(edges)
         self._outline_loc = np.searchsorted(self._outline_ids, edges)
-        self.outline = scene.add_line_segments(
+        return self.scene.add_line_segments(
             "/face/nose_outline", self._outline_points(base.V), OUTLINE, thickness=2.0,
             thickness_units="screen") if len(edges) else None
 
+    def _add_spheres(self, lms: Landmarks) -> tuple[viser.BatchedMeshHandle | None,
+                                                    viser.BatchedMeshHandle | None]:
+        """Red draggable spheres for the editable landmarks, grey ones for the fixed."""
         sv, sf = _icosphere(SPHERE_RADIUS_MM)
         unit = np.tile([1.0, 0.0, 0.0, 0.0], (1, 1))
-        lms = controller.landmarks
-        self.spheres = None
+        spheres = None
         if self.editable:
-            self.spheres = scene.add_batched_meshes_simple(
+            spheres = self.scene.add_batched_meshes_simple(
                 "/landmarks/editable", sv, sf,
                 batched_wxyzs=np.repeat(unit, len(self.editable), axis=0),
                 batched_positions=np.array([lms[i] for i in self.editable]),
                 batched_colors=np.array([LANDMARK_EDITABLE] * len(self.editable),
                                         dtype=np.uint8),
                 cast_shadow=False, receive_shadow=False)
-            self.spheres.on_drag(self._on_drag)
-        self.fixed_spheres = None
+            spheres.on_drag(self._on_drag)
+        fixed = None
         if self.fixed:
-            self.fixed_spheres = scene.add_batched_meshes_simple(
+            fixed = self.scene.add_batched_meshes_simple(
                 "/landmarks/fixed", sv, sf,
                 batched_wxyzs=np.repeat(unit, len(self.fixed), axis=0),
                 batched_positions=np.array([lms[i] for i in self.fixed]),
                 batched_colors=LANDMARK_FIXED, cast_shadow=False, receive_shadow=False)
-        self.labels = {
-            i: scene.add_label(f"/labels/{i}", LANDMARKS[i].paper if i in LANDMARKS else i,
-                               position=lms[i] + np.array([0.0, 1.6, 0.0]), visible=False,
-                               font_screen_scale=0.8, anchor="bottom-center")
-            for i in base.landmarks}
-        self.curves: dict[str, Any] = {}
+        return spheres, fixed
+
+    def _add_curves(self) -> dict[str, viser.LineSegmentsHandle]:
+        """The SPEC §5 curves of the baseline (those with two points or more)."""
+        out = {}
         for name in CURVE_NAMES:
-            c = base.curves.get(name)
+            c = self.base.curves.get(name)
             if c is None or len(c) < 2:
                 continue
-            self.curves[name] = scene.add_line_segments(
+            out[name] = self.scene.add_line_segments(
                 f"/curves/{name}", curve_segments(c, name.startswith("sill")), CURVE,
                 thickness=2.5, thickness_units="screen")
-        self.ad = None
-        if len(base.ad_landmarks):
-            self.ad = scene.add_point_cloud(
-                "/ad_landmarks", np.asarray(base.ad_landmarks), AD_LANDMARK,
-                point_size=0.6, point_shape="circle", precision="float32",
-                point_shading="flat")
-        self.frustums: dict[str, Any] = {}
-        self._camera_labels: list[Any] = []
-        for view, cam in (cameras or {}).items():
+        return out
+
+    def _add_ad_landmarks(self) -> viser.PointCloudHandle | None:
+        """The ad-landmarks as a point cloud (None when there are none)."""
+        if not len(self.base.ad_landmarks):
+            return None
+        return self.scene.add_point_cloud(
+            "/ad_landmarks", np.asarray(self.base.ad_landmarks), AD_LANDMARK,
+            point_size=0.6, point_shape="circle", precision="float32",
+            point_shading="flat")
+
+    def _add_cameras(self, cameras: Mapping[str, Camera],
+                     photos: Mapping[str, np.ndarray]) -> None:
+        """A frustum with the photo thumbnail and a label per reconstructed camera."""
+        for view, cam in cameras.items():
             wxyz, pos = camera_pose(cam)
             fov = 2.0 * np.arctan2(cam.height / 2.0, cam.K[1, 1])
-            img = None if photos is None else photos.get(view)
-            self.frustums[view] = scene.add_camera_frustum(
+            self.frustums[view] = self.scene.add_camera_frustum(
                 f"/cameras/{view}", fov=float(fov), aspect=cam.width / cam.height,
                 scale=40.0, thickness=1.5, thickness_units="screen", color=(60, 60, 60),
-                image=img, format="jpeg", jpeg_quality=80, wxyz=wxyz, position=pos)
-            self._camera_labels.append(scene.add_label(
+                image=photos.get(view), format="jpeg", jpeg_quality=80, wxyz=wxyz,
+                position=pos)
+            self._camera_labels.append(self.scene.add_label(
                 f"/cameras/{view}/label", view, position=(0.0, 0.0, 0.0),
                 font_screen_scale=0.8))
-        controller.on_simulation.append(self.update)
-        controller.on_landmarks.append(self.set_landmarks)
 
-    # ------------------------------------------------------------------ drag
-    async def _on_drag(self, event: Any) -> None:
+    # drag
+    async def _on_drag(self, event: viser.SceneNodeDragEvent[viser.BatchedMeshHandle]
+                       ) -> None:
         """Batched-sphere drag: record the latest request only (never solves here)."""
         idx = event.instance_index
         if idx is None or not (0 <= idx < len(self.editable)):
@@ -432,7 +475,7 @@ class FaceScene:
                            for i in self.editable], dtype=np.uint8)
         self.spheres.batched_colors = colors
 
-    # ------------------------------------------------------------------ updates
+    # updates
     def set_landmarks(self, lms: Landmarks) -> None:
         """Move the spheres and labels (cheap; called as soon as landmarks change)."""
         if self.spheres is not None:
@@ -445,7 +488,6 @@ class FaceScene:
 
     def update(self, sim: Simulation) -> None:
         """Push a solved state: nose vertices, curves, ad-landmarks (and the colour map)."""
-        t0 = time.perf_counter()
         with self._lock:
             V = sim.V
             with self.server.atomic():
@@ -468,8 +510,6 @@ class FaceScene:
                         self._last_colormap = now
                         self._push_colormap(V)
                 self.set_landmarks(self.ctl.landmarks)
-        self.updates += 1
-        self.last_update_seconds = time.perf_counter() - t0
 
     def _outline_points(self, V: np.ndarray) -> np.ndarray:
         """(E, 2, 3) smoothed outline segments of the nose region on the face ``V``."""
@@ -518,30 +558,26 @@ class FaceScene:
                     h.position = lms[i] + np.array([0.0, 1.6, 0.0])
                 h.visible = labels
         if curves is not None:
-            for h in self.curves.values():
-                h.visible = curves
-        if ad_landmarks is not None and self.ad is not None:
-            self.ad.visible = ad_landmarks
+            _show(self.curves.values(), curves)
+        if ad_landmarks is not None:
+            _show([self.ad], ad_landmarks)
         if cameras is not None:
-            for h in self.frustums.values():
-                h.visible = cameras
+            _show(self.frustums.values(), cameras)
         if landmarks is not None:
-            for h in (self.spheres, self.fixed_spheres):
-                if h is not None:
-                    h.visible = landmarks
+            _show([self.spheres, self.fixed_spheres], landmarks)
         if highlight is not None:
             self.highlight = highlight
             self.nose.color = NOSE if highlight else SKIN
-            if self.outline is not None:
-                self.outline.visible = highlight
+            _show([self.outline], highlight)
 
     def remove(self) -> None:
         """Detach from the controller and delete every node."""
-        for lst, cb in ((self.ctl.on_simulation, self.update),
-                        (self.ctl.on_landmarks, self.set_landmarks)):
-            if cb in lst:
-                lst.remove(cb)
-        handles = [self.caps, self.rest, self.nose, self.outline, self.original,
+        if self.update in self.ctl.on_simulation:
+            self.ctl.on_simulation.remove(self.update)
+        if self.set_landmarks in self.ctl.on_landmarks:
+            self.ctl.on_landmarks.remove(self.set_landmarks)
+        handles: list[viser.SceneNodeHandle | None] = [
+                   self.caps, self.rest, self.nose, self.outline, self.original,
                    self.colormap, self.spheres, self.fixed_spheres, self.ad,
                    *self.labels.values(), *self.curves.values(), *self._camera_labels,
                    *self.frustums.values()]

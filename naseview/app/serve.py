@@ -1,10 +1,12 @@
 """``naseview serve``: the browser app (viser) around an :class:`EditController`.
 
-:class:`NaseviewApp` opens a case directory (reconstructed in the background, progress in
-the page), a reconstruction directory (``reconstruction.json`` + ``face.ply`` +
-``nose.ply``) or a session file, builds the shared scene (:mod:`naseview.app.scene`) and
-panels (:mod:`naseview.app.panels`), and serves every browser that connects; all of them
-see the same case and each other's edits.
+:class:`NaseviewApp` opens a case directory (reconstructed in the background by the
+pipeline, stages 1-3 of the paper, with progress in the page), a reconstruction directory
+(``reconstruction.json`` + ``face.ply`` + ``nose.ply``) or a session file, builds the shared
+scene (:mod:`naseview.app.scene`) and panels (:mod:`naseview.app.panels`), and serves every
+browser that connects; all of them see the same case and each other's edits. Dragging a
+landmark re-runs stage 3's ARAP deformation (paper §3.4) through
+:mod:`naseview.editing`.
 
 Security: binds 127.0.0.1 unless ``--host`` says otherwise, never requests a share URL
 and hides the share button.
@@ -18,13 +20,16 @@ import logging
 import threading
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import fields, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
+import cv2
 import numpy as np
+import viser
 
+from naseview.app.annotate_page import NewPatientHook, install_new_patient
 from naseview.app.export import (
     landmarks_csv,
     landmarks_json,
@@ -32,6 +37,7 @@ from naseview.app.export import (
     measurements_json,
     mesh_file,
 )
+from naseview.app.gui_value import set_value
 from naseview.app.panels import (
     Panels,
     annotate_photo,
@@ -39,43 +45,104 @@ from naseview.app.panels import (
     flag_threshold,
     residual_markdown,
 )
-from naseview.app.scene import FaceScene, nice_limit, signed_displacement
+from naseview.app.scene import NOSE, SKIN, FaceScene, nice_limit, signed_displacement
+from naseview.case import Case, read_case
 from naseview.editing.baseline import (
-    baseline_from_face_model,
+    Baseline,
+    Simulation,
+    Solver,
     baseline_from_output_dir,
     baseline_from_pipeline,
 )
-from naseview.editing.state import (
-    Baseline,
-    EditController,
-    Session,
-    Simulation,
-    baseline_simulation,
-    is_session_file,
-    load_session,
-)
+from naseview.editing.controller import EditController
+from naseview.editing.session import Session, is_session_file, load_session
+from naseview.editing.solver import NoseEditSolver
 from naseview.errors import NaseviewError
+from naseview.facemodel import store
+from naseview.facemodel.ict import ICT_CREDIT
+from naseview.pipeline import PipelineParams, PipelineResult, reconstruct
+from naseview.stage1_landmarks import SfmResult
+from naseview.stage2_curves import CurveParams
+from naseview.stage3_mesh import RefineParams
 
 log = logging.getLogger(__name__)
 
-ICT_CREDIT = "ICT Face Model (USC Institute for Creative Technologies, MIT)"
+SolverFactory = Callable[[Baseline, RefineParams, int], tuple[Solver, list[str], np.ndarray]]
+"""``(baseline, refine_params, interactive_iterations) -> (solver, editable landmark ids,
+moving vertex ids)``."""
+
+STAGE_LABELS: dict[int, str] = {1: "landmarks (bundle adjustment)", 2: "curves",
+                                3: "mesh (ARAP)"}
+"""What the progress line calls each pipeline stage while it runs."""
+
+_P = TypeVar("_P", CurveParams, RefineParams)
 
 
 def demo_case_dir() -> Path:
     """The bundled demo case (``assets/demo-case`` beside the package)."""
-    import naseview
-
-    return Path(naseview.__file__).resolve().parent.parent / "assets" / "demo-case"
+    return Path(__file__).resolve().parents[2] / "assets" / "demo-case"
 
 
 def _photo_thumb(image_bgr: np.ndarray, width: int = 320) -> np.ndarray:
-    import cv2
-
+    """(h, ``width``, 3) uint8 RGB thumbnail of a BGR photo (for the camera frustums)."""
     h, w = image_bgr.shape[:2]
     s = width / float(w)
     small = cv2.resize(image_bgr, (width, max(1, int(round(h * s)))),
                        interpolation=cv2.INTER_AREA)
     return small[:, :, ::-1].copy()
+
+
+def _default_solver_factory(baseline: Baseline, refine_params: RefineParams,
+                            interactive_iterations: int) -> tuple[Solver, list[str], np.ndarray]:
+    """:class:`NoseEditSolver` on ``baseline``: its editable landmarks and moving region."""
+    s = NoseEditSolver(baseline, refine_params, interactive_iterations=interactive_iterations)
+    return s, s.editable, s.region_ids
+
+
+def _typed(params: CurveParams | RefineParams, values: Mapping[str, Any]) -> dict[str, Any]:
+    """Panel values with integers rounded where the parameter field is an ``int``."""
+    out = {}
+    for k, v in values.items():
+        cur = getattr(params, k)
+        out[k] = int(round(v)) if isinstance(cur, int) and not isinstance(cur, bool) else v
+    return out
+
+
+def _with_saved(params: _P, saved: Mapping[str, Any], where: str) -> _P:
+    """``params`` with the values a session saved (fields it no longer has are logged and
+    left out: a session outlives a renamed parameter)."""
+    names = {f.name for f in fields(params)}
+    unknown = sorted(set(saved) - names)
+    if unknown:
+        log.warning("naseview: %s: parameters %s are not fields of %s; left out", where,
+                    ", ".join(unknown), type(params).__name__)
+    return replace(params, **{k: v for k, v in saved.items() if k in names})
+
+
+def _numbers(params: CurveParams | RefineParams) -> dict[str, int | float | str | bool]:
+    """The plain-valued fields of a params object (what a session file stores)."""
+    out: dict[str, int | float | str | bool] = {}
+    for f in fields(params):
+        v = getattr(params, f.name)
+        if isinstance(v, (int, float, str, bool)):
+            out[f.name] = v
+    return out
+
+
+def _credit(model: str | None, result: PipelineResult) -> str:
+    """Attribution line of the face model used by stage 3."""
+    refined = result.refined
+    if refined is not None and refined.credit:
+        return str(refined.credit)
+    name = (refined.model_name if refined is not None else None) or model
+    if name == "ict" or (name is None and store.find_ict_npz() is not None):
+        return ICT_CREDIT
+    return ""
+
+
+def _suspect_messages(sfm: SfmResult | None) -> list[str]:
+    """One line per click stage 1 flagged as suspect."""
+    return [s.message() for s in sfm.suspect_clicks] if sfm is not None else []
 
 
 class NaseviewApp:
@@ -88,21 +155,19 @@ class NaseviewApp:
             editable ids, moving vertex ids)``; default :class:`NoseEditSolver`.
     """
 
-    def __init__(self, server: Any, model: str | None = None,
-                 solver_factory: Callable[..., tuple[Any, list[str], np.ndarray]] | None
-                 = None) -> None:
+    def __init__(self, server: viser.ViserServer, model: str | None = None,
+                 solver_factory: SolverFactory | None = None) -> None:
         self.server = server
         self.model = model
-        self.solver_factory = solver_factory or _default_solver_factory
+        self.solver_factory: SolverFactory = solver_factory or _default_solver_factory
         self.controller: EditController | None = None
         self.scene: FaceScene | None = None
-        self.case: Any = None
+        self.case: Case | None = None
         self.case_id = "case"
         self.source: Path | None = None
         self.credit = ""
-        self.sfm: Any = None
-        self.curve_params: Any = _default_params("curves")
-        self.refine_params: Any = _default_params("refine")
+        self.curve_params = CurveParams()
+        self.refine_params = RefineParams()
         self.suspect_messages: list[str] = []
         self._job_lock = threading.Lock()
         self._job_seq = 0
@@ -115,18 +180,14 @@ class NaseviewApp:
         server.scene.set_up_direction("+y")
         self.panels = Panels(server, self)
         self.panels.build_params(self.curve_params, self.refine_params)
-        # [NEW] new patient (photo intake, guided landmark clicks), patient mode, report
-        from naseview.app.annotate_page import install_new_patient
+        self.new_patient: NewPatientHook = install_new_patient(server, self,
+                                                               diagram_model=model)
 
-        self.new_patient = install_new_patient(server, self, diagram_model=model)
-
-    # ------------------------------------------------------------------ opening
+    # opening
     def open(self, path: Path | None) -> None:
         """Open a case directory, a reconstruction directory or a session file
         (``None``: the bundled demo case). Case directories reconstruct in the
         background."""
-        from naseview.case import read_case
-
         self._fresh = True  # a new case: new editor (a recompute keeps the edits)
         if path is None:
             path = demo_case_dir()
@@ -136,41 +197,47 @@ class NaseviewApp:
         path = Path(path)
         self.source = path
         if path.is_file() and is_session_file(path):
-            session = load_session(path)
-            self._open_case_from(session.app.get("case_dir"))
-            self.case_id = str(session.app.get("case_id", path.stem))
-            self.credit = str(session.app.get("credit", ""))
-            self._apply_param_values(session.app.get("params", {}))
-            self.panels.set_status(f"Session **{path.name}** ({self.case_id})")
-            self._start_job(lambda seq: self._install(session.baseline, session, seq),
-                            "Opening session")
-            return
-        if path.is_file():
+            self._open_session(path)
+        elif path.is_file():
             raise NaseviewError(f"{path}: not a naseview session file (format "
                                 "'naseview.session/1'); pass a case directory, a "
                                 "reconstruction directory or a session .json")
-        if (path / "reconstruction.json").is_file():
-            baseline = baseline_from_output_dir(path)
-            rec = baseline.reconstruction
-            self._open_case_from((rec.extra.get("case_dir") if rec else None)
-                                 or (path if (path / "case.json").is_file() else None))
-            self.case_id = self.case.id if self.case is not None else path.name
-            mesh = rec.extra.get("mesh", {}) if rec else {}
-            self.credit = str(mesh.get("credit", "") if isinstance(mesh, dict) else "")
-            self.panels.set_status(f"Reconstruction **{path.name}**")
-            self._start_job(lambda seq: self._install(baseline, None, seq), "Loading")
-            return
-        if (path / "case.json").is_file():
+        elif (path / "reconstruction.json").is_file():
+            self._open_reconstruction(path)
+        elif (path / "case.json").is_file():
             self.case = read_case(path)
             self.case_id = self.case.id
             self.reconstruct()
-            return
-        raise NaseviewError(f"{path}: no case.json, reconstruction.json or session file "
-                            "here; pass a case directory (SPEC §3), a `naseview reconstruct` "
-                            "output directory or a session file")
+        else:
+            raise NaseviewError(f"{path}: no case.json, reconstruction.json or session "
+                                "file here; pass a case directory (SPEC §3), a `naseview "
+                                "reconstruct` output directory or a session file")
 
-    def open_baseline(self, baseline: Baseline, case: Any = None, case_id: str = "case",
-                      credit: str = "") -> None:
+    def _open_session(self, path: Path) -> None:
+        """A saved session: its baseline and edits exactly, photos from its case."""
+        session = load_session(path)
+        self._open_case_from(session.app.get("case_dir"))
+        self.case_id = str(session.app.get("case_id", path.stem))
+        self.credit = str(session.app.get("credit", ""))
+        self._apply_param_values(session.app.get("params", {}), str(path))
+        self.panels.set_status(f"Session **{path.name}** ({self.case_id})")
+        self._start_job(lambda seq: self._install(session.baseline, session, seq),
+                        "Opening session")
+
+    def _open_reconstruction(self, path: Path) -> None:
+        """``naseview reconstruct`` output: its baseline, photos from the case it names."""
+        baseline = baseline_from_output_dir(path)
+        rec = baseline.reconstruction
+        self._open_case_from((rec.extra.get("case_dir") if rec else None)
+                             or (path if (path / "case.json").is_file() else None))
+        self.case_id = self.case.id if self.case is not None else path.name
+        mesh = rec.extra.get("mesh", {}) if rec else {}
+        self.credit = str(mesh.get("credit", "") if isinstance(mesh, dict) else "")
+        self.panels.set_status(f"Reconstruction **{path.name}**")
+        self._start_job(lambda seq: self._install(baseline, None, seq), "Loading")
+
+    def open_baseline(self, baseline: Baseline, case: Case | None = None,
+                      case_id: str = "case", credit: str = "") -> None:
         """Edit an in-memory :class:`Baseline` (tests, benchmarks, notebooks); ``case``
         optionally supplies the photos. Installs in the background like :meth:`open`."""
         self.case = case
@@ -187,9 +254,8 @@ class NaseviewApp:
             return False
         return self.controller.wait_idle(max(0.1, end - time.monotonic()))
 
-    def _open_case_from(self, case_dir: Any) -> None:
-        from naseview.case import read_case
-
+    def _open_case_from(self, case_dir: str | Path | None) -> None:
+        """Photos of the case directory ``case_dir`` (optional for editing)."""
         self.case = None
         if not case_dir:
             return
@@ -199,7 +265,7 @@ class NaseviewApp:
             log.warning("naseview: photos unavailable: %s", e)
             self.panels.residuals.content = f"Photos unavailable: {e}"
 
-    # ------------------------------------------------------------------ background jobs
+    # background jobs
     def _start_job(self, fn: Callable[[int], None], label: str) -> None:
         """Run ``fn(seq)`` on a background thread; a later job supersedes it."""
         with self._job_lock:
@@ -233,35 +299,30 @@ class NaseviewApp:
         self._start_job(self._reconstruct_job, "Reconstruction")
 
     def _reconstruct_job(self, seq: int) -> None:
-        from naseview.pipeline import reconstruct
-
-        names = {1: "landmarks (bundle adjustment)", 2: "curves", 3: "mesh (ARAP)"}
+        assert self.case is not None
         stages = (1, 2, 3)
         done: list[str] = []
 
-        def progress(stage: str, seconds: float, *rest: Any) -> None:
+        def progress(stage: str, seconds: float) -> None:
             """``progress(stage_name, seconds)`` after each stage (pipeline contract)."""
             if seq != self._job_seq:
                 return
             done.append(f"{stage} {seconds:.1f} s")
             self.panels.set_progress(0.05 + 0.85 * len(done) / len(stages))
-            nxt = names.get(len(done) + 1)
+            nxt = STAGE_LABELS.get(len(done) + 1)
             self.panels.set_status("Reconstruction: " + ", ".join(done)
                                    + (f"; running {nxt}…" if nxt else "; building the editor…"))
 
-        self.panels.set_status(f"Reconstruction: running {names[1]}…")
+        self.panels.set_status(f"Reconstruction: running {STAGE_LABELS[1]}…")
         t0 = time.perf_counter()
         result = reconstruct(self.case, self.model, stages,
-                             _pipeline_params(self.curve_params, self.refine_params),
+                             PipelineParams(curves=self.curve_params, refine=self.refine_params),
                              progress)
         if seq != self._job_seq:
             return
-        self.sfm = getattr(result, "sfm", None)
-        self.suspect_messages = [s.message() if hasattr(s, "message") else str(s)
-                                 for s in getattr(self.sfm, "suspect_clicks", []) or []]
+        self.suspect_messages = _suspect_messages(result.sfm)
         self.credit = _credit(self.model, result)
         baseline = baseline_from_pipeline(result)
-        warnings = list(getattr(result, "warnings", []) or [])
         self.panels.set_progress(0.92)
         self._install(baseline, None, seq)
         took = time.perf_counter() - t0
@@ -269,10 +330,10 @@ class NaseviewApp:
         rmse = baseline.reconstruction.reprojection_rmse_px if baseline.reconstruction else None
         if rmse is not None:
             lines[0] += f", reprojection RMS {rmse:.2f} px"
-        lines += [f"- {w}" for w in warnings[:6]]
+        lines += [f"- {w}" for w in list(result.warnings)[:6]]
         self.panels.set_status("\n".join(lines))
 
-    # ------------------------------------------------------------------ installing
+    # installing
     def _install(self, baseline: Baseline, session: Session | None, seq: int) -> None:
         """Build the solver, controller and scene for ``baseline`` (job thread)."""
         solver, editable, moving = self.solver_factory(
@@ -283,43 +344,57 @@ class NaseviewApp:
             if self.scene is not None:
                 self.scene.remove()
                 self.scene = None
-            fresh, self._fresh = self._fresh, False
-            if self.controller is None or session is not None or fresh:
-                if self.controller is not None:
-                    self.controller.close()
-                ctl = (EditController.from_session(session, solver) if session is not None
-                       else EditController(baseline, solver))
-                ctl.on_simulation.append(self._on_simulation)
-                ctl.on_history.append(self._on_history)
-                ctl.on_error.append(self.panels.show_error)
-                self.controller = ctl
-            else:
-                self.controller.rebase(baseline, solver)
-            ctl = self.controller
-            lim = getattr(self.refine_params, "max_handle_displacement_mm", None)
+            ctl = self._controller_for(baseline, session, solver)
+            lim = self.refine_params.max_handle_displacement_mm
             ctl.max_displacement_mm = float(lim) if lim else None
-            cams = baseline.reconstruction.cameras if baseline.reconstruction else {}
-            photos = {}
-            if self.case is not None:
-                for v in cams:
-                    try:
-                        photos[v] = _photo_thumb(self.case.load_image(v))
-                    except NaseviewError:
-                        pass
-            self.scene = FaceScene(self.server, ctl, editable, cams, photos, region=moving)
-            if ctl.simulation.generation == ctl.generation:
-                self.scene.update(ctl.simulation)
-            p = self.panels
-            self.scene.set_visible(labels=p.labels.value, curves=p.show_curves.value,
-                                   ad_landmarks=p.show_ad.value, cameras=p.show_cameras.value,
-                                   landmarks=p.show_landmarks.value,
-                                   highlight=p.highlight.value)
-            self.scene.set_view(colormap=p.colormap.value, original=p.show_original.value,
-                                overlay=p.overlay.value)
+            self.scene = self._build_scene(ctl, editable, moving)
+            self.apply_display()
             if session is not None:
-                p.symmetric.value = session.symmetric
-            ctl.set_symmetric(p.symmetric.value)
-            self._set_camera(baseline)
+                set_value(self.panels.symmetric, session.symmetric)
+            ctl.set_symmetric(self.panels.symmetric.value)
+            self.reset_camera()
+        self._show_installed(baseline, editable, session)
+
+    def _controller_for(self, baseline: Baseline, session: Session | None,
+                        solver: Solver) -> EditController:
+        """A new controller (new case or session), or the current one rebased on a
+        recomputed ``baseline`` so that the edits carry over."""
+        fresh, self._fresh = self._fresh, False
+        if self.controller is not None and session is None and not fresh:
+            self.controller.rebase(baseline, solver)
+            return self.controller
+        if self.controller is not None:
+            self.controller.close()
+        ctl = (EditController.from_session(session, solver) if session is not None
+               else EditController(baseline, solver))
+        ctl.on_simulation.append(self._on_simulation)
+        ctl.on_history.append(self._on_history)
+        ctl.on_error.append(self.panels.show_error)
+        self.controller = ctl
+        return ctl
+
+    def _build_scene(self, ctl: EditController, editable: list[str],
+                     moving: np.ndarray) -> FaceScene:
+        """The 3D scene of ``ctl``'s baseline with the cameras and photo thumbnails."""
+        baseline = ctl.baseline
+        cams = baseline.reconstruction.cameras if baseline.reconstruction else {}
+        photos = {}
+        if self.case is not None:
+            for v in cams:
+                try:
+                    photos[v] = _photo_thumb(self.case.load_image(v))
+                except NaseviewError:
+                    pass
+        scene = FaceScene(self.server, ctl, editable, cams, photos, region=moving)
+        if ctl.simulation.generation == ctl.generation:
+            scene.update(ctl.simulation)
+        return scene
+
+    def _show_installed(self, baseline: Baseline, editable: list[str],
+                        session: Session | None) -> None:
+        """Panel texts, measurements, history buttons and photo once the editor is up."""
+        ctl = self.controller
+        assert ctl is not None
         fixed = [k for k in baseline.landmarks if k not in editable]
         self._edit_help = ("Drag a **red** sphere to reshape the nose"
                            + (f" (grey = fixed: {', '.join(fixed)})" if fixed else "") + ".")
@@ -336,8 +411,23 @@ class NaseviewApp:
                 (self.source / "reconstruction.json").is_file():
             self.panels.set_status(f"**{self.case_id}** loaded.")
 
-    def _set_camera(self, baseline: Baseline) -> None:
-        """Three-quarter view of the nose from the subject's left, nose filling the view."""
+    def apply_display(self) -> None:
+        """Show the scene as the panel's display and before / after toggles say."""
+        if self.scene is None:
+            return
+        p = self.panels
+        self.scene.set_visible(labels=p.labels.value, curves=p.show_curves.value,
+                               ad_landmarks=p.show_ad.value, cameras=p.show_cameras.value,
+                               landmarks=p.show_landmarks.value, highlight=p.highlight.value)
+        self.scene.set_view(colormap=p.colormap.value, original=p.show_original.value,
+                            overlay=p.overlay.value)
+
+    def reset_camera(self) -> None:
+        """Three-quarter view of the nose from the subject's left, nose filling the view
+        (every browser, and the initial camera of new ones)."""
+        if self.controller is None:
+            return
+        baseline = self.controller.baseline
         nose = baseline.V[baseline.nose_ids] if len(baseline.nose_ids) else baseline.V
         target = nose.mean(axis=0)
         size = float(np.ptp(nose, axis=0).max()) if len(nose) else 60.0
@@ -348,19 +438,19 @@ class NaseviewApp:
         cam.fov = fov
         cam.near = 1.0
         cam.far = 5000.0
-        cam.look_at = tuple(float(x) for x in target)
-        cam.position = tuple(float(x) for x in eye)
+        cam.look_at = (float(target[0]), float(target[1]), float(target[2]))
+        cam.position = (float(eye[0]), float(eye[1]), float(eye[2]))
         cam.up = (0.0, 1.0, 0.0)
         for client in self.server.get_clients().values():
             client.camera.fov = fov
             client.camera.near = 1.0
             client.camera.far = 5000.0
-            # [NEW] position first: viser moves look_at along with a position update
-            client.camera.position = tuple(float(x) for x in eye)
-            client.camera.look_at = tuple(float(x) for x in target)
+            # position first: viser moves look_at along with a position update
+            client.camera.position = (float(eye[0]), float(eye[1]), float(eye[2]))
+            client.camera.look_at = (float(target[0]), float(target[1]), float(target[2]))
             client.camera.up_direction = (0.0, 1.0, 0.0)
 
-    # ------------------------------------------------------------------ listeners
+    # listeners
     def _on_simulation(self, sim: Simulation) -> None:
         ctl = self.controller
         if ctl is None:
@@ -380,8 +470,6 @@ class NaseviewApp:
             return
         ids = sc.nose_ids
         d = signed_displacement(sc.base.V[ids], sim.V[ids], sc.normals[ids])
-        from naseview.app.scene import NOSE, SKIN
-
         self.panels.set_colorbar(nice_limit(float(np.abs(d).max()) if len(d) else 0.0),
                                  max(0.0, float(d.max(initial=0.0))),
                                  max(0.0, float(-d.min(initial=0.0))),
@@ -393,7 +481,7 @@ class NaseviewApp:
             return
         self.panels.set_history(ctl.can_undo, ctl.can_redo, ctl.is_edited())
 
-    # ------------------------------------------------------------------ actions (panels)
+    # actions (panels)
     def undo(self) -> None:
         if self.controller is not None:
             self.controller.undo()
@@ -434,17 +522,12 @@ class NaseviewApp:
             return
         base = ctl.baseline
         cams = base.reconstruction.cameras if base.reconstruction else {}
-        cam = cams.get(view)
-        res = {}
-        for v, vv in self.case.views.items():
-            c = cams.get(v)
-            if c is not None:
-                res[v] = click_residuals(vv.landmarks, c, base.landmarks)
+        res = {v: click_residuals(vv.landmarks, cams[v], base.landmarks)
+               for v, vv in self.case.views.items() if v in cams}
         flag = flag_threshold(res)
-        clicks = self.case.views[view].landmarks
-        img = annotate_photo(self.case.load_image(view), cam, clicks, base.landmarks,
-                             base.curves, flag_px=flag)
-        p.photo.image = img
+        p.photo.image = annotate_photo(self.case.load_image(view), cams.get(view),
+                                       self.case.views[view].landmarks, base.landmarks,
+                                       base.curves, flag_px=flag)
         p.photo.visible = True
         text = residual_markdown(res, flag)
         if self.suspect_messages:
@@ -459,31 +542,41 @@ class NaseviewApp:
         self._changed_stages.add(stage)
         if self._param_timer is not None:
             self._param_timer.cancel()
-        self._param_timer = threading.Timer(0.6, self.recompute)
+        self._param_timer = threading.Timer(0.6, self._recompute_shown)
         self._param_timer.daemon = True
         self._param_timer.start()
 
-    def _apply_param_values(self, values: dict[str, Any]) -> None:
-        for key, attr in (("curves", "curve_params"), ("refine", "refine_params")):
-            obj = getattr(self, attr)
-            given = values.get(key) or {}
-            if obj is None or not given:
-                continue
-            names = {f.name for f in fields(obj)}
-            setattr(self, attr, replace(obj, **{k: v for k, v in given.items()
-                                               if k in names}))
+    def _recompute_shown(self) -> None:
+        """:meth:`recompute` from the debounce timer: an invalid value is shown in the
+        page (the parameters keep their last valid values)."""
+        try:
+            self.recompute()
+        except NaseviewError as e:
+            self.panels.show_error(str(e))
+
+    def _apply_param_values(self, values: Mapping[str, Any], where: str) -> None:
+        """The stage 2 / stage 3 parameters a session saved (``{"curves": {...},
+        "refine": {...}}``), then the panel inputs rebuilt for them."""
+        if values.get("curves"):
+            self.curve_params = _with_saved(self.curve_params, values["curves"], where)
+        if values.get("refine"):
+            self.refine_params = _with_saved(self.refine_params, values["refine"], where)
         self.panels.build_params(self.curve_params, self.refine_params)
 
     def recompute(self) -> None:
         """Apply the parameter panel: re-run the pipeline (case open) or rebuild the
-        edit solver (session / reconstruction without photos)."""
+        edit solver (session / reconstruction without photos).
+
+        Raises:
+            NaseviewError: a panel value outside its parameter's range.
+        """
         stages, self._changed_stages = self._changed_stages, set()
         v2, v3 = self.panels.param_values()
-        if self.curve_params is not None and v2:
+        if v2:
             self.curve_params = replace(self.curve_params, **_typed(self.curve_params, v2))
-        if self.refine_params is not None and v3:
+        if v3:
             self.refine_params = replace(self.refine_params, **_typed(self.refine_params, v3))
-        if self.case is not None and _pipeline_available() and stages != {"app"}:
+        if self.case is not None and stages != {"app"}:
             self.reconstruct()
             return
         ctl = self.controller
@@ -499,40 +592,36 @@ class NaseviewApp:
 
         self._start_job(job, "Recompute")
 
-    # ------------------------------------------------------------------ export
+    # export
     def app_state(self) -> dict[str, Any]:
         """What a session file stores besides the editor state."""
-        params: dict[str, Any] = {}
-        for key, obj in (("curves", self.curve_params), ("refine", self.refine_params)):
-            if obj is not None:
-                params[key] = {f.name: getattr(obj, f.name) for f in fields(obj)
-                               if isinstance(getattr(obj, f.name), (int, float, str, bool))}
         return {"case_id": self.case_id,
                 "case_dir": str(self.case.root) if self.case is not None else None,
-                "model": self.model, "credit": self.credit, "params": params}
+                "model": self.model, "credit": self.credit,
+                "params": {"curves": _numbers(self.curve_params),
+                           "refine": _numbers(self.refine_params)}}
 
     def file_for(self, kind: str, fmt: str, part: str = "face",
                  state: str = "simulated") -> tuple[str, bytes]:
-        """(file name, content) of an export."""
+        """(file name, content) of an export: ``kind`` ``"mesh"`` (``fmt`` a mesh type;
+        ``part`` face or nose, ``state`` simulated or original), ``"landmarks"`` /
+        ``"measurements"`` (json or csv) or ``"session"``."""
         ctl = self.controller
         if ctl is None:
             raise NaseviewError("nothing to export yet: the reconstruction is not ready")
-        base = ctl.baseline
-        sim = ctl.simulation
         name = self.case_id.replace("/", "_") or "case"
         if kind == "mesh":
-            V = sim.V if state == "simulated" else base.V
-            ids = base.nose_ids if part == "nose" else None
-            return f"{name}-{part}-{state}.{fmt}", mesh_file(V, base.F, fmt, ids)
+            return f"{name}-{part}-{state}.{fmt}", self._mesh_export(ctl, fmt, part, state)
         if kind == "landmarks":
+            base = ctl.baseline
             lms = ctl.landmarks
             data = (landmarks_json(lms, base.landmarks, self.case_id) if fmt == "json"
                     else landmarks_csv(lms, base.landmarks))
             return f"{name}-landmarks.{fmt}", data
         if kind == "measurements":
-            data = (measurements_json(base.measurements, sim.measurements, self.case_id)
-                    if fmt == "json" else measurements_csv(base.measurements,
-                                                           sim.measurements))
+            before, after = ctl.baseline.measurements, ctl.simulation.measurements
+            data = (measurements_json(before, after, self.case_id) if fmt == "json"
+                    else measurements_csv(before, after))
             return f"{name}-measurements.{fmt}", data
         if kind == "session":
             ctl.wait_idle(10.0)
@@ -541,96 +630,33 @@ class NaseviewApp:
             return f"{name}-session.json", data
         raise ValueError(f"unknown export {kind!r}")
 
-    def download(self, client: Any, kind: str, fmt: str, **kw: str) -> None:
+    @staticmethod
+    def _mesh_export(ctl: EditController, fmt: str, part: str, state: str) -> bytes:
+        """Mesh file of the simulated or original face or nose."""
+        base = ctl.baseline
+        V = ctl.simulation.V if state == "simulated" else base.V
+        return mesh_file(V, base.F, fmt, base.nose_ids if part == "nose" else None)
+
+    def download(self, client: viser.ClientHandle | None, kind: str, fmt: str,
+                 **kw: str) -> None:
+        """Send an export (:meth:`file_for`) to ``client`` (``None``: every browser)."""
         fname, data = self.file_for(kind, fmt, **kw)
         target = client if client is not None else self.server
         target.send_file_download(fname, data, save_immediately=True)
 
     def close(self) -> None:
-        self.new_patient.close()  # [NEW]
+        self.new_patient.close()
         if self._param_timer is not None:
             self._param_timer.cancel()
         if self.controller is not None:
             self.controller.close()
 
 
-# ---------------------------------------------------------------------------- helpers
-def _default_solver_factory(baseline: Baseline, refine_params: Any,
-                            interactive_iterations: int) -> tuple[Any, list[str], np.ndarray]:
-    from naseview.editing.solver import NoseEditSolver
-
-    s = NoseEditSolver(baseline, refine_params, interactive_iterations=interactive_iterations)
-    return s, s.editable, s.region_ids
-
-
-def _default_params(stage: str) -> Any:
-    try:
-        if stage == "curves":
-            from naseview.stage2_curves.params import CurveParams
-
-            return CurveParams()
-        from naseview.stage3_mesh.solve import RefineParams
-
-        return RefineParams()
-    except ImportError:
-        return None
-
-
-def _typed(obj: Any, values: dict[str, Any]) -> dict[str, Any]:
-    out = {}
-    for k, v in values.items():
-        cur = getattr(obj, k, None)
-        out[k] = int(round(v)) if isinstance(cur, int) and not isinstance(cur, bool) else v
-    return out
-
-
-def _pipeline_available() -> bool:
-    try:
-        import naseview.pipeline  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-def _pipeline_params(curve_params: Any, refine_params: Any) -> Any:
-    """The ``params`` argument of :func:`naseview.pipeline.reconstruct`."""
-    from naseview import pipeline
-
-    cls = getattr(pipeline, "PipelineParams", None)
-    if cls is None:
-        return None
-    names = {f.name for f in fields(cls)}
-    kw = {}
-    for key, obj in (("curves", curve_params), ("refine", refine_params)):
-        if key in names and obj is not None:
-            kw[key] = obj
-    return cls(**kw)
-
-
-def _credit(model: str | None, result: Any) -> str:
-    """Attribution line of the face model used by stage 3."""
-    refined = getattr(result, "refined", None)
-    credit = getattr(refined, "credit", None) or ""
-    if credit:
-        return str(credit)
-    name = getattr(refined, "model_name", None) or model
-    if name in (None, "ict"):
-        try:
-            from naseview.facemodel import store
-
-            if name == "ict" or store.find_ict_npz() is not None:
-                return ICT_CREDIT
-        except ImportError:
-            return ""
-    return ""
-
-
 def start_app(path: Path | None, host: str = "127.0.0.1", port: int = 8080,
-              model: str | None = None, verbose: bool = True,
-              solver_factory: Callable[..., Any] | None = None) -> tuple[Any, NaseviewApp]:
+              model: str | None = None,
+              solver_factory: SolverFactory | None = None
+              ) -> tuple[viser.ViserServer, NaseviewApp]:
     """Start the server and open ``path``; returns ``(server, app)`` (non-blocking)."""
-    import viser
-
     server = viser.ViserServer(host=host, port=port, verbose=False)
     try:
         app = NaseviewApp(server, model=model, solver_factory=solver_factory)
@@ -650,14 +676,13 @@ def serve_command(args: argparse.Namespace) -> int:
     if path is not None and not Path(path).exists():  # fail before a server starts
         raise NaseviewError(f"{path}: not found; pass a case directory (SPEC §3), a "
                             "`naseview reconstruct` output directory or a session file")
-    server, app = start_app(getattr(args, "path", None), host, port,
-                            getattr(args, "model", None))
+    server, app = start_app(path, host, port, getattr(args, "model", None))
     shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
     print(f"naseview: serving {app.source} at http://{shown}:{server.get_port()}/", flush=True)
     if host not in ("127.0.0.1", "localhost", "::1"):
         print(f"naseview: warning: bound to {host}; other computers on the network can open "
               "this page (patient data)", flush=True)
-    if getattr(args, "new", False):  # [NEW] start with the new-patient page
+    if getattr(args, "new", False):  # start with the new-patient page
         app.new_patient.annotate.show_start()
     print("naseview: press Ctrl-C to stop", flush=True)
     try:
@@ -671,6 +696,4 @@ def serve_command(args: argparse.Namespace) -> int:
     return 0
 
 
-__all__ = ["NaseviewApp", "baseline_from_face_model", "baseline_from_output_dir",
-           "baseline_from_pipeline",
-           "baseline_simulation", "demo_case_dir", "serve_command", "start_app"]
+__all__ = ["NaseviewApp", "SolverFactory", "demo_case_dir", "serve_command", "start_app"]

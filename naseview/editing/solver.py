@@ -1,10 +1,11 @@
 """The app's solver: landmark drags -> deformed nose, curves, ad-landmarks, measurements.
 
-A pure consumer of stage 3: :class:`NoseEditSolver` builds one
-:class:`naseview.stage3_mesh.NoseDeformer` on the *reconstructed* face (the baseline), with the
-editable landmarks' vertices as handles, and re-solves it for every drag. The deformation
-is the paper's ARAP + cotangent smoothing; the smoothing acts on the displacement
-(``smooth_displacement=True``) so an unedited nose stays exactly the reconstruction.
+A pure consumer of stage 3 (paper §3.4): :class:`NoseEditSolver` builds one
+:class:`naseview.stage3_mesh.NoseDeformer` on the *reconstructed* face (the baseline), with
+the editable landmarks' vertices as handles, and re-solves it for every drag. The
+deformation is the paper's ARAP (eq. 19-20) + cotangent smoothing (eq. 21); the smoothing
+acts on the displacement (``smooth_displacement=True``) so an unedited nose stays exactly
+the reconstruction.
 
 Curves and ad-landmarks follow the surface: each of their points is attached to the
 baseline mesh (triangle, barycentric coordinates, offset from the surface) and carried
@@ -23,10 +24,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
+import igl
 import numpy as np
+from scipy.spatial import cKDTree
 
-from naseview.editing.state import Baseline, Solved
+from naseview.editing.baseline import Baseline, Solved
 from naseview.landmarks import LANDMARK_IDS
+from naseview.measurements import clinical_measurements
+from naseview.stage3_mesh import NoseDeformer, RefineParams, deform_region
 
 FIXED_LANDMARKS: tuple[str, ...] = ("g", "mf_l", "mf_r")
 """Bony reference points outside the nose: shown, never dragged."""
@@ -49,8 +54,6 @@ class SurfaceAttachment:
 
 def attach_points(P: np.ndarray, V: np.ndarray, F: np.ndarray) -> SurfaceAttachment:
     """Attach points (P, 3) to the closest points of the mesh (V (N, 3), F (M, 3)), mm."""
-    import igl
-
     P = np.ascontiguousarray(np.asarray(P, dtype=np.float64).reshape(-1, 3))
     if len(P) == 0:
         return SurfaceAttachment(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)))
@@ -78,8 +81,6 @@ def landmark_vertices(V: np.ndarray, landmarks: Mapping[str, np.ndarray],
     """The mesh vertex of each landmark: the nearest vertex among ``candidates`` (default
     all), kept only when closer than ``tol_mm`` (mm). Distinct landmarks may not share a
     vertex (the later one in SPEC order is dropped)."""
-    from scipy.spatial import cKDTree
-
     ids = np.arange(len(V)) if candidates is None else np.asarray(candidates, np.int64)
     if len(ids) == 0:
         return {}
@@ -112,23 +113,18 @@ class NoseEditSolver:
         tol_mm: a landmark farther than this from every nose vertex is not editable.
     """
 
-    def __init__(self, baseline: Baseline, params: object | None = None,
+    def __init__(self, baseline: Baseline, params: RefineParams | None = None,
                  fixed: Sequence[str] = FIXED_LANDMARKS, interactive_iterations: int = 6,
                  tol_mm: float = 2.5) -> None:
-        from naseview.stage3_mesh.solve import NoseDeformer, RefineParams, grow_by_distance
-
-        p = params if params is not None else RefineParams()
-        assert isinstance(p, RefineParams)
-        self.params = replace(p, smooth_displacement=True)
+        self.params = replace(params or RefineParams(), smooth_displacement=True)
         self.baseline = baseline
         V, F = baseline.V, baseline.F
         lv = landmark_vertices(V, {k: v for k, v in baseline.landmarks.items()
                                    if k not in fixed}, baseline.nose_ids, tol_mm)
         self.editable: list[str] = [k for k in baseline.landmarks if k in lv]
         self.handle_ids = np.array([lv[k] for k in self.editable], dtype=np.int64)
-        grown = grow_by_distance(V, F, self.handle_ids, self.params.handle_clearance_mm) \
-            if len(self.handle_ids) else np.zeros(0, np.int64)
-        region = np.unique(np.r_[np.asarray(baseline.nose_ids, np.int64), grown])
+        region = deform_region(V, F, baseline.nose_ids, self.handle_ids,
+                               self.params.handle_clearance_mm)
         self.deformer = NoseDeformer(V, F, region, self.handle_ids, self.params)
         self.region_ids = np.asarray(self.deformer.region_vertex_ids, np.int64)
         self._fast = replace(self.params, arap_iterations=max(1, int(interactive_iterations)),
@@ -136,28 +132,32 @@ class NoseEditSolver:
         self._base_handles = V[self.handle_ids].copy()
         self._base_lms = {k: np.asarray(baseline.landmarks[k], np.float64)
                           for k in self.editable}
-        names = [k for k, c in baseline.curves.items() if len(c)]
-        pts = [np.asarray(baseline.curves[k], np.float64).reshape(-1, 3) for k in names]
+        self._attach_curves_and_ad_landmarks()
+
+    def _attach_curves_and_ad_landmarks(self) -> None:
+        """Glue the baseline's curve points and ad-landmarks to its mesh, curves first."""
+        b = self.baseline
+        names = [k for k, c in b.curves.items() if len(c)]
+        pts = [np.asarray(b.curves[k], np.float64).reshape(-1, 3) for k in names]
         self._curve_names = names
         self._curve_splits = np.cumsum([len(c) for c in pts])[:-1]
-        allp = np.concatenate(pts + [np.asarray(baseline.ad_landmarks).reshape(-1, 3)]) \
-            if pts or len(baseline.ad_landmarks) else np.zeros((0, 3))
+        allp = np.concatenate(pts + [np.asarray(b.ad_landmarks).reshape(-1, 3)]) \
+            if pts or len(b.ad_landmarks) else np.zeros((0, 3))
         self._n_curve = int(sum(len(c) for c in pts))
-        self._att = attach_points(allp, V, F)
+        self._att = attach_points(allp, b.V, b.F)
 
     def __call__(self, landmarks: Mapping[str, np.ndarray],
                  interactive: bool = False) -> Solved:
-        """Solve for landmark positions (id -> (3,) mm); see :class:`Solved`."""
-        from naseview.measurements import clinical_measurements
+        """Solve for landmark positions (id -> (3,) mm); see :class:`Solved`.
 
+        ``interactive``: a solve during a drag (few ARAP iterations, no convergence
+        warning); else a full solve with ``params``.
+        """
         H = self._base_handles.copy()
         for i, k in enumerate(self.editable):
             H[i] += np.asarray(landmarks[k], np.float64) - self._base_lms[k]
-        self.deformer.params = self._fast if interactive else self.params
-        try:
-            rep = self.deformer.solve_report(H, warm_start=True)
-        finally:
-            self.deformer.params = self.params
+        rep = self.deformer.solve_report(H, warm_start=True,
+                                         params=self._fast if interactive else self.params)
         V = rep.V
         F = self.baseline.F
         P = attached_positions(self._att, V, F)

@@ -1,8 +1,9 @@
 """ICT Face Model annotations: the 21 landmark vertices, the nose and the nostril regions.
 
-The ICT Face Model Light (USC Institute for Creative Technologies, MIT licence) is the
-"full face area" of ICT-FaceKit's ``generic_neutral_mesh.obj`` (9,409 vertices) with its
-identity modes; see :mod:`naseview.facemodel.store` for how it is installed. The vertex ids
+The ICT Face Model Light (USC Institute for Creative Technologies, MIT licence), the
+morphable model stage 3 fits for its base face (paper §3.4, eq. 18), is the "full face
+area" of ICT-FaceKit's ``generic_neutral_mesh.obj`` (9,409 vertices) with its identity
+modes; see :mod:`naseview.facemodel.store` for how it is installed. The vertex ids
 below are naseview's own annotation of that mesh (no ICT data is stored here). They were
 found by geometry on the mean face and then frozen; ``benchmarks/ict_annotations.py``
 recomputes them and prints the difference. How each was found (SPEC axes, mm; the mesh is
@@ -36,8 +37,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from naseview.errors import NaseviewError
-from naseview.facemodel import FaceModel
 from naseview.facemodel.meshcurves import curve_paths
+from naseview.facemodel.model import FaceModel
 
 ICT_CREDIT = "ICT Face Model (USC Institute for Creative Technologies, MIT)"
 """Attribution line shown wherever the ICT model is used."""

@@ -38,28 +38,12 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 
-from naseview.geometry.mesh import vertex_normals
+from naseview.geometry.laplacian import cotangent_laplacian, voronoi_mass
+from naseview.geometry.mesh import boundary_edges, mesh_edges, vertex_adjacency, vertex_normals
 from naseview.landmarks import CURVE_LANDMARKS, CURVE_NAMES, HELPER_IDS
 
 VALLEY_LENGTH_MM = 4.0
 """Length scale ``L`` turning mean curvature (1/mm) into the dimensionless valley cost."""
-
-
-def mesh_edges(F: np.ndarray) -> np.ndarray:
-    """(E, 2) int64 unique undirected edges (i < j) of triangles ``F`` (F, 3)."""
-    F = np.asarray(F, dtype=np.int64)
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    n = int(F.max()) + 1 if F.size else 1
-    key = np.unique(e[:, 0] * n + e[:, 1])
-    return np.stack([key // n, key % n], axis=1)
-
-
-def vertex_adjacency(n_vertices: int, F: np.ndarray) -> sp.csr_matrix:
-    """(V, V) symmetric 0/1 CSR adjacency of the mesh edges."""
-    E = mesh_edges(F)
-    ones = np.ones(len(E))
-    A = sp.coo_matrix((ones, (E[:, 0], E[:, 1])), shape=(n_vertices, n_vertices))
-    return (A + A.T).tocsr()
 
 
 def mean_curvature(V: np.ndarray, F: np.ndarray, smooth_iterations: int = 2) -> np.ndarray:
@@ -70,18 +54,15 @@ def mean_curvature(V: np.ndarray, F: np.ndarray, smooth_iterations: int = 2) -> 
     the 1-ring to calm the irregular-triangle noise. Boundary vertices get the mean of
     their interior neighbours' values through the smoothing.
     """
-    import igl
-
     V = np.ascontiguousarray(V, dtype=np.float64)
     F = np.ascontiguousarray(F, dtype=np.int64)
-    L = igl.cotmatrix(V, F)
-    M = igl.massmatrix(V, F, igl.MASSMATRIX_TYPE_VORONOI)
-    m = M.diagonal()
+    L = cotangent_laplacian(V, F)
+    m = voronoi_mass(V, F)
     m = np.where(m > 0, m, np.inf)
     Hn = -(L @ V) / m[:, None]
     H = 0.5 * np.einsum("ij,ij->i", Hn, vertex_normals(V, F))
     boundary = np.zeros(len(V), dtype=bool)
-    boundary[np.unique(_boundary_edges(F))] = True
+    boundary[np.unique(boundary_edges(F))] = True
     H[boundary] = 0.0
     A = vertex_adjacency(len(V), F)
     interior = (~boundary).astype(np.float64)
@@ -90,16 +71,6 @@ def mean_curvature(V: np.ndarray, F: np.ndarray, smooth_iterations: int = 2) -> 
         den = A @ interior + interior
         H = np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0)
     return H
-
-
-def _boundary_edges(F: np.ndarray) -> np.ndarray:
-    """(B, 2) directed edges (as in ``F``) that belong to exactly one triangle."""
-    F = np.asarray(F, dtype=np.int64)
-    e = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
-    s = np.sort(e, axis=1)
-    n = int(F.max()) + 1 if F.size else 1
-    _, inv, counts = np.unique(s[:, 0] * n + s[:, 1], return_inverse=True, return_counts=True)
-    return e[counts[inv.ravel()] == 1]
 
 
 def weighted_edge_graph(V: np.ndarray, F: np.ndarray,
@@ -166,7 +137,7 @@ def region_boundary_loops(F: np.ndarray, vertex_ids: np.ndarray) -> list[np.ndar
     if len(Fs) == 0:
         return []
     nxt: dict[int, list[int]] = {}
-    for a, b in _boundary_edges(Fs):
+    for a, b in boundary_edges(Fs):
         nxt.setdefault(int(a), []).append(int(b))
     loops: list[np.ndarray] = []
     while nxt:
@@ -252,20 +223,33 @@ def curve_paths(V: np.ndarray, F: np.ndarray, landmark_vertices: Mapping[str, in
     V = np.asarray(V, dtype=np.float64)
     F = np.asarray(F, dtype=np.int64)
     lm = {k: int(v) for k, v in landmark_vertices.items()}
-    mid_ids = [i for i in CURVE_LANDMARKS["mid"] if i in lm]
-    x_mid = float(np.median(V[[lm[i] for i in mid_ids], 0])) if mid_ids else 0.0
-    costs = curve_cost_fields(V, F, x_mid=x_mid)
-    graphs = {kind: weighted_edge_graph(V, F, c) for kind, c in costs.items()}
-    out: dict[str, np.ndarray] = {}
-    for name in CURVE_NAMES:
-        if name.startswith("sill"):
-            continue
-        ids = [i for i in CURVE_LANDMARKS[name] if i not in HELPER_IDS]
-        out[name] = chain_path(graphs[_CURVE_COST[name]], [lm[i] for i in ids])
+    out = _open_curve_paths(V, F, lm)
     for side, sign in (("l", 1.0), ("r", -1.0)):
         out[f"sill_{side}"] = _sill_loop(V, F, np.asarray(nostril_vertices, dtype=np.int64),
                                          sign, lm.get(f"alpp_{side}"))
     return {name: out[name] for name in CURVE_NAMES}
+
+
+def _cost_graphs(V: np.ndarray, F: np.ndarray, lm: dict[str, int]) -> dict[str, sp.csr_matrix]:
+    """Feature kind -> edge graph weighted by its cost field, the midline at the median x
+    of the mid-curve landmarks."""
+    mid_ids = [i for i in CURVE_LANDMARKS["mid"] if i in lm]
+    x_mid = float(np.median(V[[lm[i] for i in mid_ids], 0])) if mid_ids else 0.0
+    costs = curve_cost_fields(V, F, x_mid=x_mid)
+    return {kind: weighted_edge_graph(V, F, c) for kind, c in costs.items()}
+
+
+def _open_curve_paths(V: np.ndarray, F: np.ndarray, lm: dict[str, int]
+                      ) -> dict[str, np.ndarray]:
+    """Every open curve: its landmark vertices (no ``add`` helpers) joined by shortest
+    paths on the edge graph of the curve's feature cost (module table)."""
+    graphs = _cost_graphs(V, F, lm)
+    out: dict[str, np.ndarray] = {}
+    for name in CURVE_NAMES:
+        if not name.startswith("sill"):
+            ids = [i for i in CURVE_LANDMARKS[name] if i not in HELPER_IDS]
+            out[name] = chain_path(graphs[_CURVE_COST[name]], [lm[i] for i in ids])
+    return out
 
 
 def _sill_loop(V: np.ndarray, F: np.ndarray, nostril: np.ndarray, sign: float,

@@ -1,18 +1,21 @@
 """Install, find and load the ICT Face Model (the ``naseview model ...`` commands).
 
-The ICT Face Model Light lives in one ``.npz`` (format: ``mean`` (9409, 3) float32 mm,
-``faces`` (18460, 3) int32, ``basis`` (K, 9409, 3) float32 mm with ``basis[k] =
-identityK - neutral``, ``units`` = ``"mm"``, ``source``), found in this order:
+The ICT Face Model is the preferred base face of stage 3 — mesh (paper §3.4, the 3D
+morphable model). Its Light version lives in one ``.npz`` (format: ``mean`` (9409, 3)
+float32 mm, ``faces`` (18460, 3) int32, ``basis`` (K, 9409, 3) float32 mm with
+``basis[k] = identityK - neutral``, ``units`` = ``"mm"``, ``source``), found in this order:
 
 1. the file named by the environment variable ``NASEVIEW_ICT_MODEL``;
 2. ``<user data dir>/models/ict_face_light.npz``, where the user data dir is
    ``$NASEVIEW_DATA_DIR``, else ``$XDG_DATA_HOME/naseview``, else
    ``~/.local/share/naseview``.
 
-It is installed by :func:`import_ict` (an ICT-FaceKit checkout, its ``FaceXModel/`` folder,
-or a ready ``.npz``) or :func:`fetch_ict` (downloads the OBJ files from GitHub: the only
-network access naseview makes). The model is ICT-FaceKit by the USC Institute for Creative
-Technologies, MIT licence; :data:`ICT_CREDIT` is printed wherever it is installed or shown.
+It is installed by :func:`import_ict` (an ICT-FaceKit checkout, its ``FaceXModel/``
+folder, a ready ``.npz`` or a folder holding ``ict_face_light.npz``; OBJ files are read by
+:func:`naseview.meshio.read_obj`) or :func:`fetch_ict` (downloads the OBJ files from
+GitHub: the only network access naseview makes). The model is ICT-FaceKit by the USC
+Institute for Creative Technologies, MIT licence; :data:`ICT_CREDIT` is printed wherever it
+is installed or shown.
 
 Example
 -------
@@ -39,14 +42,19 @@ import zipfile
 import zlib
 from collections.abc import Callable
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 
 from naseview.errors import NaseviewError
-from naseview.facemodel import FaceModel
-from naseview.facemodel.ict import ICT_CREDIT, ICT_LANDMARK_VERTICES, ICT_N_VERTICES
-from naseview.fileio import atomic_write_bytes
+from naseview.facemodel.ict import (
+    ICT_CREDIT,
+    ICT_LANDMARK_VERTICES,
+    ICT_N_VERTICES,
+    ict_face_model,
+)
+from naseview.facemodel.model import FaceModel
+from naseview.fileio import atomic_write_bytes, one_line
+from naseview.meshio import read_obj, triangulate_polygons
 
 ICT_BASE_URL = "https://raw.githubusercontent.com/ICT-VGL/ICT-FaceKit/master/FaceXModel/"
 """Default download location of the ICT-FaceKit OBJ files."""
@@ -64,10 +72,6 @@ CM_TO_MM = 10.0
 
 _FIX = "re-run `naseview model fetch` or `naseview model import-ict DIR`"
 
-
-# ----------------------------------------------------------------------------------------
-# locations
-# ----------------------------------------------------------------------------------------
 
 def user_data_dir() -> Path:
     """naseview's user data folder: ``$NASEVIEW_DATA_DIR``, ``$XDG_DATA_HOME/naseview`` or
@@ -105,10 +109,6 @@ def find_ict_npz() -> Path | None:
     return p if p.is_file() else None
 
 
-# ----------------------------------------------------------------------------------------
-# the .npz format
-# ----------------------------------------------------------------------------------------
-
 def read_ict_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     """Read and validate an ICT-format ``.npz``; arrays as stored (plus ``units``).
 
@@ -125,7 +125,7 @@ def read_ict_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
     try:
         npz = np.load(path, allow_pickle=False)
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as e:
-        raise NaseviewError(f"{path}: not a readable .npz file ({_one_line(e)}); {_FIX}") from None
+        raise NaseviewError(f"{path}: not a readable .npz file ({one_line(e)}); {_FIX}") from None
     if not isinstance(npz, np.lib.npyio.NpzFile):
         raise NaseviewError(f"{path}: a single .npy array, not an .npz archive; {_FIX}")
     out: dict[str, np.ndarray] = {}
@@ -142,17 +142,13 @@ def read_ict_arrays(path: str | os.PathLike[str]) -> dict[str, np.ndarray]:
                 out[key] = npz[key]
             except (OSError, ValueError, zipfile.BadZipFile, zlib.error, EOFError) as e:
                 raise NaseviewError(
-                    f"{path}: key '{key}' unreadable ({_one_line(e)}); {_FIX}") from None
+                    f"{path}: key '{key}' unreadable ({one_line(e)}); {_FIX}") from None
     _validate_arrays(path, out)
     return out
 
 
-def _one_line(e: object) -> str:
-    """``e`` as one line of text (exception message or reason)."""
-    return " ".join(str(e).split()) or type(e).__name__
-
-
 def _validate_arrays(path: Path, a: dict[str, np.ndarray]) -> None:
+    """The checks of :func:`read_ict_arrays` on the arrays read from ``path``."""
     nv = ICT_N_VERTICES
     mean, faces, basis = a["mean"], a["faces"], a["basis"]
     if mean.dtype.kind != "f" or mean.shape != (nv, 3):
@@ -205,8 +201,7 @@ def load_ict_npz(path: str | os.PathLike[str]) -> FaceModel:
 
 @functools.lru_cache(maxsize=4)
 def _load_cached(path: str, mtime_ns: int, size: int) -> FaceModel:
-    from naseview.facemodel.ict import ict_face_model
-
+    """The model of ``path``; ``mtime_ns`` and ``size`` only key the cache."""
     fm = ict_face_model(read_ict_arrays(path))
     for arr in (fm.mean, fm.faces, fm.basis, fm.nose_vertices, fm.nostril_vertices,
                 *fm.curve_vertices.values()):
@@ -216,6 +211,7 @@ def _load_cached(path: str, mtime_ns: int, size: int) -> FaceModel:
 
 def _npz_bytes(mean_mm: np.ndarray, faces: np.ndarray, basis_mm: np.ndarray,
                source: str) -> bytes:
+    """The ``.npz`` file of the module docstring's format (float32 mm, int32 faces)."""
     buf = io.BytesIO()
     np.savez_compressed(buf, mean=mean_mm.astype(np.float32), faces=faces.astype(np.int32),
                         basis=basis_mm.astype(np.float32), units=np.array("mm"),
@@ -223,127 +219,18 @@ def _npz_bytes(mean_mm: np.ndarray, faces: np.ndarray, basis_mm: np.ndarray,
     return buf.getvalue()
 
 
-# ----------------------------------------------------------------------------------------
-# OBJ reading and ICT-FaceKit conversion
-# ----------------------------------------------------------------------------------------
-
-class ObjPolygons(NamedTuple):
-    """Vertices and polygons of a Wavefront OBJ file.
-
-    Attributes:
-        vertices: (V, 3) float64 positions (file units).
-        indices: (S,) int64 0-based vertex ids of all polygons, concatenated.
-        sizes: (P,) int64 corner count of each polygon, in file order.
-    """
-
-    vertices: np.ndarray
-    indices: np.ndarray
-    sizes: np.ndarray
-
-
-def read_obj(path: str | os.PathLike[str], faces: bool = True) -> ObjPolygons:
-    """Read the ``v`` and ``f`` lines of an OBJ file (everything else is ignored).
-
-    Faces may be triangles, quads or larger polygons, with ``v``, ``v/vt``, ``v//vn`` or
-    ``v/vt/vn`` corners and negative (relative) indices. About 0.1 s for ICT-FaceKit's
-    26,719-vertex head.
-
-    Args:
-        path: the ``.obj`` file.
-        faces: ``False`` to skip the face lines (returns empty ``indices`` / ``sizes``).
-    Raises:
-        NaseviewError: missing file, malformed line (names the file and the line number).
-    """
-    path = Path(path)
-    try:
-        lines = path.read_bytes().splitlines()
-    except OSError as e:
-        raise NaseviewError(f"{path}: cannot read OBJ file ({_one_line(e)})") from None
-    vlines = [ln for ln in lines if ln.startswith(b"v ")]
-    V = _parse_obj_vertices(path, lines, vlines)
-    if not faces:
-        return ObjPolygons(V, np.zeros(0, np.int64), np.zeros(0, np.int64))
-    fl = [(no, ln) for no, ln in enumerate(lines, 1) if ln.startswith(b"f ")]
-    tokens = [ln.split()[1:] for _, ln in fl]
-    sizes = np.array([len(t) for t in tokens], dtype=np.int64)
-    if sizes.size and sizes.min() < 3:
-        bad = fl[int(np.argmin(sizes))][0]
-        raise NaseviewError(f"{path}: line {bad}: a face needs at least 3 corners")
-    try:
-        idx = np.array([c.split(b"/", 1)[0] for t in tokens for c in t]).astype(np.int64)
-    except ValueError:
-        for no, ln in fl:
-            try:
-                [int(c.split(b"/", 1)[0]) for c in ln.split()[1:]]
-            except ValueError:
-                raise NaseviewError(f"{path}: line {no}: malformed face line") from None
-        raise NaseviewError(f"{path}: malformed face line") from None
-    if idx.size and idx.min() < 0:  # relative ids count back from the vertices read so far
-        vcount = np.cumsum([ln.startswith(b"v ") for ln in lines])
-        before = np.repeat(vcount[[no - 1 for no, _ in fl]], sizes)
-        idx = np.where(idx < 0, before + idx + 1, idx)
-    idx = idx - 1
-    if idx.size and (idx.min() < 0 or idx.max() >= len(V)):
-        raise NaseviewError(
-            f"{path}: a face refers to vertex {int(idx.max()) + 1} or {int(idx.min()) + 1}, "
-            f"but the file has {len(V)} vertices")
-    return ObjPolygons(V, idx, sizes)
-
-
-def _parse_obj_vertices(path: Path, lines: list[bytes], vlines: list[bytes]) -> np.ndarray:
-    if not vlines:
-        raise NaseviewError(f"{path}: no vertex ('v') lines; not an OBJ mesh")
-    try:
-        ncol = {len(vlines[0].split()), len(vlines[-1].split())}
-        if len(ncol) == 1 and ncol.pop() >= 4:
-            arr = np.loadtxt(io.BytesIO(b"\n".join(vlines)), usecols=(1, 2, 3),
-                             dtype=np.float64, comments=None, ndmin=2)
-            if len(arr) == len(vlines) and np.isfinite(arr).all():
-                return arr
-    except ValueError:
-        pass
-    out = np.empty((len(vlines), 3))
-    k = 0
-    for no, ln in enumerate(lines, 1):
-        if not ln.startswith(b"v "):
-            continue
-        parts = ln.split()
-        try:
-            out[k] = [float(x) for x in parts[1:4]]
-            if len(parts) < 4 or not np.isfinite(out[k]).all():
-                raise ValueError
-        except ValueError:
-            raise NaseviewError(f"{path}: line {no}: malformed vertex line") from None
-        k += 1
-    return out
-
-
-def triangulate_polygons(indices: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """(T, 3) triangles of polygons: a fan from the first corner, (a,b,c), (a,c,d), ...
-
-    Each polygon's triangles are consecutive, in fan order (for ICT quads: (a,b,c) then
-    (a,c,d), as in the published ``.npz``).
-    """
-    indices = np.asarray(indices, dtype=np.int64)
-    sizes = np.asarray(sizes, dtype=np.int64)
-    starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-    ntri = sizes - 2
-    poly = np.repeat(np.arange(len(sizes)), ntri)
-    k = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri)
-    s = starts[poly]
-    return np.stack([indices[s], indices[s + k + 1], indices[s + k + 2]], axis=1)
-
-
 def _facexmodel_dir(source: Path) -> Path:
+    """The folder holding ``generic_neutral_mesh.obj``: ``source/FaceXModel`` or ``source``."""
     for d in (source / "FaceXModel", source):
         if (d / "generic_neutral_mesh.obj").is_file():
             return d
     raise NaseviewError(
-        f"{source}: no generic_neutral_mesh.obj here or in FaceXModel/; give an ICT-FaceKit "
-        f"checkout, its FaceXModel folder, or a converted .npz")
+        f"{source}: no generic_neutral_mesh.obj here or in FaceXModel/, and no {ICT_NPZ_NAME}; "
+        f"give an ICT-FaceKit checkout, its FaceXModel folder, or a converted .npz")
 
 
 def _identity_files(folder: Path) -> list[Path]:
+    """``identityNNN.obj`` files of ``folder``, by number."""
     found = []
     for p in folder.iterdir():
         m = re.fullmatch(r"identity(\d{3})\.obj", p.name)
@@ -405,10 +292,12 @@ def convert_facekit(folder: str | os.PathLike[str],
 
 def import_ict(source: str | os.PathLike[str],
                progress: Callable[[int, int], None] | None = None) -> Path:
-    """Install the ICT model from an ICT-FaceKit checkout, its ``FaceXModel/``, or a ``.npz``.
+    """Install the ICT model from an ICT-FaceKit checkout, its ``FaceXModel/``, a converted
+    ``.npz``, or a folder holding a converted ``ict_face_light.npz``.
 
-    OBJ files are converted (:func:`convert_facekit`); a ``.npz`` is validated and copied.
-    The result is written atomically to :func:`ict_install_path`.
+    OBJ files are converted (:func:`convert_facekit`); a ``.npz`` is validated and copied
+    (a folder's ``ict_face_light.npz`` is used before any OBJ files beside it). The result
+    is written atomically to :func:`ict_install_path`.
 
     Returns:
         The installed file.
@@ -416,23 +305,37 @@ def import_ict(source: str | os.PathLike[str],
         NaseviewError: unusable source (names the file and what was expected).
     """
     src = Path(source).expanduser()
-    dest = ict_install_path()
     if src.is_file():
         if src.suffix.lower() != ".npz":
             raise NaseviewError(
                 f"{src}: expected an ICT-FaceKit folder or a converted .npz file")
-        read_ict_arrays(src)
-        if dest.exists() and dest.resolve() == src.resolve():
-            return dest
-        atomic_write_bytes(dest, src.read_bytes())
-        return dest
+        return _install_npz(src)
     if not src.is_dir():
         raise NaseviewError(f"{src}: not found; give an ICT-FaceKit checkout, its "
                             f"FaceXModel folder or a converted .npz")
-    arrays = convert_facekit(src, progress)
-    data = _npz_bytes(arrays["mean"], arrays["faces"], arrays["basis"], str(arrays["source"]))
+    if (src / ICT_NPZ_NAME).is_file():
+        return _install_npz(src / ICT_NPZ_NAME)
+    return _install_converted(convert_facekit(src, progress))
+
+
+def _install_npz(src: Path) -> Path:
+    """Validate a converted ``.npz`` (:func:`read_ict_arrays`) and copy it into place."""
+    dest = ict_install_path()
+    read_ict_arrays(src)
+    if dest.exists() and dest.resolve() == src.resolve():
+        return dest
+    atomic_write_bytes(dest, src.read_bytes())
+    return dest
+
+
+def _install_converted(arrays: dict[str, np.ndarray | str]) -> Path:
+    """Write :func:`convert_facekit` arrays as the installed ``.npz``, validated before it
+    replaces a working model."""
+    dest = ict_install_path()
+    mean, faces, basis = (np.asarray(arrays[k]) for k in ("mean", "faces", "basis"))
+    data = _npz_bytes(mean, faces, basis, str(arrays["source"]))
     tmp = dest.with_name(dest.name + ".check.npz")
-    try:  # validate what would be installed before replacing a working model
+    try:
         atomic_write_bytes(tmp, data)
         read_ict_arrays(tmp)
         os.replace(tmp, dest)
@@ -441,11 +344,8 @@ def import_ict(source: str | os.PathLike[str],
     return dest
 
 
-# ----------------------------------------------------------------------------------------
-# download
-# ----------------------------------------------------------------------------------------
-
 def _progress_bar(label: str) -> Callable[[int, int], None]:
+    """A ``(done, total)`` callback drawing ``label [####....] done/total`` on stderr."""
     def show(done: int, total: int) -> None:
         width = 30
         fill = int(round(width * done / max(total, 1)))
@@ -457,6 +357,7 @@ def _progress_bar(label: str) -> Callable[[int, int], None]:
 
 
 def _download(url: str, dest: Path, timeout: float) -> int:
+    """Download ``url`` to ``dest``; returns its size in bytes."""
     try:
         with urllib.request.urlopen(url, timeout=timeout) as resp, open(dest, "wb") as f:
             shutil.copyfileobj(resp, f, length=1 << 20)
@@ -467,7 +368,7 @@ def _download(url: str, dest: Path, timeout: float) -> int:
     except (urllib.error.URLError, OSError, ValueError) as e:
         reason = e.reason if isinstance(e, urllib.error.URLError) else e
         raise NaseviewError(
-            f"could not download {url}: {_one_line(reason)}; check the network or use "
+            f"could not download {url}: {one_line(reason)}; check the network or use "
             f"`naseview model import-ict DIR`") from None
     return dest.stat().st_size
 
@@ -502,10 +403,6 @@ def fetch_ict(base_url: str | None = None, timeout: float = 60.0) -> Path:
         return import_ict(folder, progress=_progress_bar("converting"))
 
 
-# ----------------------------------------------------------------------------------------
-# CLI
-# ----------------------------------------------------------------------------------------
-
 def model_command(args: argparse.Namespace) -> int:
     """``naseview model import-ict SOURCE | fetch [--url URL] | info``."""
     action = args.model_command
@@ -523,6 +420,7 @@ def model_command(args: argparse.Namespace) -> int:
 
 
 def _print_installed(path: Path) -> None:
+    """Print what was installed and the ICT credit."""
     fm = load_ict_npz(path)
     print(f"installed face model 'ict': {path} ({fm.n_vertices} vertices, "
           f"{fm.n_modes} identity modes)")
@@ -530,11 +428,13 @@ def _print_installed(path: Path) -> None:
 
 
 def _print_info() -> int:
+    """``naseview model info``: the data folder and every face model naseview can use."""
     print(f"user data dir: {user_data_dir()}")
     path = find_ict_npz()
     if path is None:
         print("ict: not installed; run `naseview model fetch` (download) or "
-              "`naseview model import-ict DIR` (an ICT-FaceKit checkout)")
+              "`naseview model import-ict DIR` (an ICT-FaceKit checkout or a folder with "
+              f"{ICT_NPZ_NAME})")
     else:
         where = f"from {ICT_ENV}" if os.environ.get(ICT_ENV) else "installed"
         fm = load_ict_npz(path)

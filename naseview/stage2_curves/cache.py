@@ -20,14 +20,21 @@ import hashlib
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, TypeVar, cast
 
 import numpy as np
+
+from naseview.camera import Camera
+
+if TYPE_CHECKING:
+    from hashlib import _Hash
 
 T = TypeVar("T")
 
 
-def _feed(h: Any, obj: Any) -> None:
+def _feed(h: _Hash, obj: object) -> None:
+    """Feed one key part into the hash: arrays by dtype, shape and bytes, containers
+    element by element, numbers and strings by type and value, cameras by K, R, t, size."""
     if isinstance(obj, np.ndarray):
         a = np.ascontiguousarray(obj)
         h.update(f"nd{a.dtype.str}{a.shape}".encode())
@@ -47,13 +54,13 @@ def _feed(h: Any, obj: Any) -> None:
         h.update(repr(float(obj)).encode())
     elif obj is None or isinstance(obj, (str, int, bool, np.integer)):
         h.update(f"{type(obj).__name__}:{obj!r}".encode())
-    elif hasattr(obj, "K") and hasattr(obj, "R") and hasattr(obj, "t"):  # Camera
+    elif isinstance(obj, Camera):
         _feed(h, (obj.K, obj.R, obj.t, int(obj.width), int(obj.height)))
     else:
         raise TypeError(f"cannot key the cache on {type(obj).__name__}")
 
 
-def digest(*parts: Any) -> str:
+def digest(*parts: object) -> str:
     """Hex digest of nested arrays / dicts / lists / numbers / strings / cameras."""
     h = hashlib.sha256()  # hardware-accelerated on most CPUs
     _feed(h, parts)
@@ -72,7 +79,7 @@ class StepCache:
     max_entries: int = 16
     hits: dict[str, int] = field(default_factory=dict)
     misses: dict[str, int] = field(default_factory=dict)
-    _store: dict[str, OrderedDict[str, Any]] = field(default_factory=dict, repr=False)
+    _store: dict[str, OrderedDict[str, object]] = field(default_factory=dict, repr=False)
 
     def get(self, step: str, key: str, compute: Callable[[], T]) -> T:
         """The cached value of ``step`` for ``key``, computing and storing it if absent."""
@@ -80,7 +87,7 @@ class StepCache:
         if key in bucket:
             bucket.move_to_end(key)
             self.hits[step] = self.hits.get(step, 0) + 1
-            return bucket[key]
+            return cast(T, bucket[key])
         value = compute()
         bucket[key] = value
         while len(bucket) > self.max_entries:
@@ -92,8 +99,3 @@ class StepCache:
         """Zero the hit and miss counters (the stored values stay)."""
         self.hits.clear()
         self.misses.clear()
-
-    def clear(self) -> None:
-        """Drop everything."""
-        self._store.clear()
-        self.reset_stats()

@@ -26,6 +26,8 @@ from numpy.typing import ArrayLike
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from naseview.geometry.polyline import polyline_length, resample_by_count
+
 
 @dataclass(frozen=True)
 class EdgeMap:
@@ -50,7 +52,7 @@ def to_gray(image: np.ndarray) -> np.ndarray:
 
 def scharr_magnitude(gray: np.ndarray, blur_sigma: float = 0.0) -> np.ndarray:
     """(H, W) float32 gradient magnitude K = sqrt((I*Gx)^2 + (I*Gy)^2) (eq. 11)."""
-    g = gray.astype(np.float32)
+    g: np.ndarray = gray.astype(np.float32)
     if blur_sigma > 0:
         g = cv2.GaussianBlur(g, (0, 0), blur_sigma)
     gx = cv2.Scharr(g, cv2.CV_32F, 1, 0)
@@ -186,7 +188,7 @@ def smooth_polyline(P: ArrayLike, sigma: float) -> np.ndarray:
     P = np.asarray(P, dtype=np.float64)
     if sigma <= 0 or len(P) < 3:
         return P.copy()
-    Q = resample_polyline(P, max(2, int(np.ceil(polyline_length(P) / 0.5)) + 1))
+    Q = resample_by_count(P, max(2, int(np.ceil(polyline_length(P) / 0.5)) + 1))
     k = int(np.ceil(3 * sigma / 0.5))
     x = np.arange(-k, k + 1) * 0.5
     g = np.exp(-0.5 * (x / sigma) ** 2)
@@ -200,29 +202,3 @@ def smooth_polyline(P: ArrayLike, sigma: float) -> np.ndarray:
     out = np.stack([np.convolve(ext[:, j], g, mode="valid") for j in range(Q.shape[1])], 1)
     out[0], out[-1] = Q[0], Q[-1]
     return out
-
-
-def polyline_length(P: ArrayLike) -> float:
-    """Length of an (N, D) polyline."""
-    P = np.asarray(P, dtype=np.float64)
-    return float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum()) if len(P) > 1 else 0.0
-
-
-def cumulative_length(P: ArrayLike) -> np.ndarray:
-    """(N,) arc length from the first point of an (N, D) polyline."""
-    P = np.asarray(P, dtype=np.float64)
-    if len(P) < 2:
-        return np.zeros(len(P))
-    return np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
-
-
-def resample_polyline(P: ArrayLike, n: int) -> np.ndarray:
-    """(n, D) points equally spaced in arc length along an (N, D) polyline."""
-    P = np.asarray(P, dtype=np.float64)
-    if len(P) == 1:
-        return np.repeat(P, n, axis=0)
-    s = cumulative_length(P)
-    if s[-1] <= 0:
-        return np.repeat(P[:1], n, axis=0)
-    t = np.linspace(0.0, s[-1], n)
-    return np.stack([np.interp(t, s, P[:, j]) for j in range(P.shape[1])], axis=1)

@@ -31,9 +31,9 @@ def catmull_rom_segments(P: ArrayLike, n: int, alpha: float = 0.5) -> list[np.nd
     for i in range(len(P) - 1):
         p0, p1, p2, p3 = ext[i:i + 4]
         t0 = 0.0
-        t1 = t0 + max(np.linalg.norm(p1 - p0), 1e-9) ** alpha
-        t2 = t1 + max(np.linalg.norm(p2 - p1), 1e-9) ** alpha
-        t3 = t2 + max(np.linalg.norm(p3 - p2), 1e-9) ** alpha
+        t1 = t0 + np.maximum(np.linalg.norm(p1 - p0), 1e-9) ** alpha
+        t2 = t1 + np.maximum(np.linalg.norm(p2 - p1), 1e-9) ** alpha
+        t3 = t2 + np.maximum(np.linalg.norm(p3 - p2), 1e-9) ** alpha
         t = np.linspace(t1, t2, n)[:, None]
         a1 = (t1 - t) / (t1 - t0) * p0 + (t - t0) / (t1 - t0) * p1
         a2 = (t2 - t) / (t2 - t1) * p1 + (t - t1) / (t2 - t1) * p2

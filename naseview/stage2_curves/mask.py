@@ -59,11 +59,11 @@ def _in_box(hsv: np.ndarray, ref: np.ndarray, hue_tol: float, sat_tol: float,
     v_lo, v_hi = int(round(ref[2] - val_tol)), int(round(ref[2] + val_tol))
     img = np.ascontiguousarray(hsv.reshape(-1, 1, 3) if hsv.ndim != 3 else hsv)
     if not use_hue:
-        out = cv2.inRange(img, (0, max(s_lo, 0), max(v_lo, 0)), (255, min(s_hi, 255),
-                                                                  min(v_hi, 255)))
-        return out.reshape(hsv.shape[:-1]) > 0
+        grey = cv2.inRange(img, (0, max(s_lo, 0), max(v_lo, 0)), (255, min(s_hi, 255),
+                                                                   min(v_hi, 255)))
+        return grey.reshape(hsv.shape[:-1]) > 0
     h0, ht = int(round(ref[0])), int(round(hue_tol))
-    out = np.zeros(img.shape[:2], np.uint8)
+    out: np.ndarray = np.zeros(img.shape[:2], np.uint8)
     for lo, hi in ((h0 - ht, h0 + ht), (h0 - ht + 180, h0 + ht + 180),
                    (h0 - ht - 180, h0 + ht - 180)):
         lo, hi = max(lo, 0), min(hi, 179)
@@ -126,7 +126,7 @@ def foreground_mask(image: np.ndarray, bg: Background, clean_px: int = 3,
     x0, y0, x1, y1 = roi if roi is not None else (0, 0, W, H)
     hsv = cv2.cvtColor(image[y0:y1, x0:x1], cv2.COLOR_BGR2HSV)
     back = _in_box(hsv, bg.hsv, bg.hue_tol, bg.sat_tol, bg.val_tol, bg.hsv[1] >= bg.grey_sat)
-    fg = (~back).astype(np.uint8)
+    fg: np.ndarray = (~back).astype(np.uint8)
     if clean_px > 1:
         k = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (clean_px, clean_px))
         fg = cv2.morphologyEx(fg, cv2.MORPH_OPEN, k)

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from naseview.camera import Camera
+from naseview.geometry.polyline import cumulative_length, polyline_length
 from naseview.landmarks import CURVE_FAMILIES
 
 PAPER_TABLE4_MAE: dict[str, float] = {"mid": 1.347, "bottom": 2.565, "ala": 1.573,
@@ -106,7 +107,7 @@ def _nearest_param(P: np.ndarray, q: np.ndarray) -> float:
 
 def _sub_polyline(P: np.ndarray, s0: float, s1: float) -> np.ndarray:
     """The stretch of polyline P between arc-length positions s0 and s1 (any order)."""
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(P, axis=0), axis=1))])
+    s = cumulative_length(P)
     a, b = sorted((s0, s1))
     inner = P[(s > a) & (s < b)]
     ends = [np.array([np.interp(x, s, P[:, j]) for j in range(P.shape[1])]) for x in (a, b)]
@@ -138,18 +139,12 @@ def boundary_hausdorff(P: ArrayLike, T: ArrayLike, closed: bool = False) -> floa
         s0, s1 = _nearest_param(Pc, piece[0]), _nearest_param(Pc, piece[-1])
         cands = [_sub_polyline(Pc, s0, s1)]
         if closed:
-            total = float(np.linalg.norm(np.diff(Pc, axis=0), axis=1).sum())
+            total = polyline_length(Pc)
             a, b = sorted((s0, s1))
             P2 = np.vstack([Pc, Pc[1:]])  # the loop twice, to take the wrap-around arc
             cands.append(_sub_polyline(P2, b, a + total))
         worst = max(worst, min(_hausdorff_piece(piece, Q, False, False) for Q in cands))
     return worst
-
-
-def px_per_mm_front(front_al: tuple[ArrayLike, ArrayLike], al_distance_mm: float) -> float:
-    """Front-photo scale: |al_l - al_r| in px divided by the al_l-al_r distance in mm."""
-    a, b = (np.asarray(p, dtype=np.float64) for p in front_al)
-    return float(np.linalg.norm(a - b) / al_distance_mm)
 
 
 def px_per_mm_from_truth(landmarks: Mapping[str, ArrayLike], front: Camera) -> float:
@@ -158,6 +153,21 @@ def px_per_mm_from_truth(landmarks: Mapping[str, ArrayLike], front: Camera) -> f
     A = np.array([landmarks["al_l"], landmarks["al_r"]], dtype=np.float64)
     uv = front.project(A)
     return float(np.linalg.norm(uv[0] - uv[1]) / np.linalg.norm(A[0] - A[1]))
+
+
+def _curve_error(P3: np.ndarray, camera: Camera, T: np.ndarray, closed: bool,
+                 px_per_mm: float) -> tuple[float, float]:
+    """MAE and Hausdorff (mm) of the (N, 3) curve projected with ``camera`` against the
+    (M, 2) ground-truth points; both infinite for an empty curve."""
+    if len(P3) == 0:
+        return float("inf"), float("inf")
+    P = camera.project(P3)
+    return (float(point_to_polyline(T, P, closed).mean()) / px_per_mm,
+            boundary_hausdorff(P, T, closed) / px_per_mm)
+
+
+def _mean_or_nan(values: list[float]) -> float:
+    return float(np.mean(values)) if values else float("nan")
 
 
 def boundary_errors(curves: Mapping[str, ArrayLike], cameras: Mapping[str, Camera],
@@ -184,14 +194,8 @@ def boundary_errors(curves: Mapping[str, ArrayLike], cameras: Mapping[str, Camer
                 T = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
                 if len(T) == 0 or view not in cameras:
                     continue
-                closed = family == "sill"
                 P3 = np.asarray(curves.get(name, np.zeros((0, 3))), dtype=np.float64)
-                if len(P3) == 0:
-                    mae = hd = float("inf")
-                else:
-                    P = cameras[view].project(P3)
-                    mae = float(point_to_polyline(T, P, closed).mean()) / px_per_mm
-                    hd = boundary_hausdorff(P, T, closed) / px_per_mm
+                mae, hd = _curve_error(P3, cameras[view], T, family == "sill", px_per_mm)
                 per[f"{name}/{view}"] = {"mae_mm": mae, "hausdorff_mm": hd, "n": len(T)}
                 f = fams.setdefault(family, {"mae_mm": [], "hausdorff_mm": []})
                 f["mae_mm"].append(mae)
@@ -199,10 +203,8 @@ def boundary_errors(curves: Mapping[str, ArrayLike], cameras: Mapping[str, Camer
     families = {k: {m: float(np.mean(v)) for m, v in d.items()} for k, d in fams.items()}
     return {
         "curves": per, "families": families,
-        "mean_mae_mm": float(np.mean([f["mae_mm"] for f in families.values()]))
-        if families else float("nan"),
-        "mean_hausdorff_mm": float(np.mean([f["hausdorff_mm"] for f in families.values()]))
-        if families else float("nan"),
+        "mean_mae_mm": _mean_or_nan([f["mae_mm"] for f in families.values()]),
+        "mean_hausdorff_mm": _mean_or_nan([f["hausdorff_mm"] for f in families.values()]),
     }
 
 

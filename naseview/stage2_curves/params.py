@@ -4,18 +4,30 @@ The app binds sliders to these fields; :func:`naseview.stage2_curves.extract.ext
 caches each step on the fields it reads, so changing one field re-runs only the steps
 that depend on it.
 
+The dataclass is frozen and checks every field when it is made: a value outside its range
+raises :class:`CurveParamsError` naming the field and the range, an unknown field name a
+``TypeError``. Change a value with :func:`dataclasses.replace`.
+
 Example
 -------
+>>> from dataclasses import replace
 >>> p = CurveParams(closing_px=7)
 >>> p.total_sub_landmarks()
 55
+>>> try:
+...     replace(p, lift_weight=1.5)
+... except CurveParamsError as e:
+...     print(str(e).split(";")[0])
+CurveParams.lift_weight: 1.5 is outside [0, 1]
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import Any
+import math
+from dataclasses import dataclass, field, fields
+from numbers import Integral, Real
 
+from naseview.errors import NaseviewError
 from naseview.landmarks import CURVE_NAMES
 
 DEFAULT_SUB_LANDMARKS: dict[str, int] = {
@@ -25,7 +37,108 @@ DEFAULT_SUB_LANDMARKS: dict[str, int] = {
 """Sub-landmarks per curve; 55 in all, so 21 + 55 = 76 ad-landmarks as in the paper."""
 
 
-@dataclass
+class CurveParamsError(NaseviewError, ValueError):
+    """A :class:`CurveParams` field out of its range (one line: field, value, range).
+
+    Also a :class:`ValueError`, which is what the checks raised before they moved into
+    the constructor.
+    """
+
+
+@dataclass(frozen=True)
+class _Range:
+    """An interval of allowed values; ``lo_open`` / ``hi_open`` exclude the end."""
+
+    lo: float
+    hi: float = math.inf
+    lo_open: bool = False
+    hi_open: bool = False
+
+    def __contains__(self, value: float) -> bool:
+        above = value > self.lo if self.lo_open else value >= self.lo
+        below = value < self.hi if self.hi_open or math.isinf(self.hi) else value <= self.hi
+        return bool(above and below)
+
+    def __str__(self) -> str:
+        hi_open = self.hi_open or math.isinf(self.hi)
+        return (f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}"
+                f"{')' if hi_open else ']'}")
+
+
+_AT_LEAST_0 = _Range(0.0)
+_POSITIVE = _Range(0.0, lo_open=True)
+
+_INT_FIELDS: frozenset[str] = frozenset({"border_px", "mask_clean_px", "roi_margin_px",
+                                         "closing_px", "nostril_min_area_px"})
+"""Fields that hold a whole number of pixels."""
+
+_RANGES: dict[str, tuple[_Range, str]] = {
+    "border_px": (_Range(1.0), "width (px) of the border that gives the background colour"),
+    "hue_tol": (_AT_LEAST_0, "hue tolerance of the background box (OpenCV hue units)"),
+    "sat_tol": (_AT_LEAST_0, "saturation tolerance of the background box"),
+    "val_tol": (_AT_LEAST_0, "value tolerance of the background box"),
+    "grey_sat": (_Range(0.0, 255.0), "background saturation below which hue is not used"),
+    "border_min_inlier": (_Range(0.0, 1.0), "fraction of border pixels of background colour"),
+    "mask_clean_px": (_AT_LEAST_0, "size (px) of the mask opening/closing, 0 = none"),
+    "silhouette_tol": (_POSITIVE, "fraction of the g-sn length in the photo"),
+    "edge_blur_sigma": (_AT_LEAST_0, "Gaussian blur (px) before Scharr, 0 = none"),
+    "edge_ref_percentile": (_Range(0.0, 100.0, lo_open=True),
+                            "percentile of the edge magnitude that counts as full strength"),
+    "path_cost_exponent": (_POSITIVE, "exponent of (1 - E) in the path cost (eq. 12)"),
+    "path_cost_floor": (_POSITIVE, "cost floor that keeps paths short on flat skin"),
+    "corridor_px": (_Range(1.0), "smallest half-width (px) of the path corridor"),
+    "corridor_frac": (_AT_LEAST_0, "corridor half-width as a fraction of the segment"),
+    "path_prior_weight": (_AT_LEAST_0, "0 is the paper's cost"),
+    "path_min_contrast": (_AT_LEAST_0, "times the median edge strength of the nose region"),
+    "path_smooth_px": (_AT_LEAST_0, "Gaussian smoothing (px) of the paths, 0 = none"),
+    "roi_margin_px": (_AT_LEAST_0, "margin (px) around the landmarks of a view"),
+    "dark_ratio": (_Range(0.0, 1.0, lo_open=True, hi_open=True),
+                   "dark = below this times the median value of the nose region"),
+    "closing_px": (_AT_LEAST_0, "diameter (px) of the closing element of eq. 13, 0 = none"),
+    "nostril_min_area_px": (_Range(1.0), "smallest dark area (px^2) taken as a nostril"),
+    "nostril_search_frac": (_POSITIVE, "fraction of the al''-al'' distance"),
+    "side_w_ratio": (_POSITIVE, "w2 / w1 of eq. 15, the paper's 1"),
+    "side_h_ratio": (_POSITIVE, "h2 / h1 of eq. 15, the paper's 3"),
+    "side_bulge": (_Range(-0.5, 0.5), "fraction of the int-mf distance, 0 is the paper's"),
+    "lift_weight": (_Range(0.0, 1.0),
+                    "0.5 is the paper's midpoint of eq. 10, 1 the point on the line of sight"),
+    "curve_spacing_mm": (_POSITIVE, "spacing (mm) of the output polylines"),
+}
+"""Allowed range and a reminder of the meaning of every numeric field."""
+
+_DARK_THRESHOLD = _Range(0.0, 255.0, lo_open=True, hi_open=True)
+_MID_TRACES: tuple[str, ...] = ("contour", "rows")
+
+
+def _fail(name: str, message: str) -> CurveParamsError:
+    return CurveParamsError(f"CurveParams.{name}: {message}")
+
+
+def _check_number(name: str, value: object, allowed: _Range, hint: str) -> None:
+    """One numeric field: an int (pixel counts) or a real number inside ``allowed``."""
+    kind = Integral if name in _INT_FIELDS else Real
+    if isinstance(value, bool) or not isinstance(value, kind):
+        what = "a whole number" if kind is Integral else "a number"
+        raise _fail(name, f"{value!r} is not {what} in {allowed}; {hint}")
+    if float(value) not in allowed:  # NaN is in no range
+        raise _fail(name, f"{value!r} is outside {allowed}; {hint}")
+
+
+def _check_sub_landmarks(counts: object) -> None:
+    """Known SPEC §5 curve names, each with a whole count >= 0."""
+    if not isinstance(counts, dict):
+        raise _fail("sub_landmarks", f"{counts!r} is not a dict curve name -> count")
+    unknown = sorted(set(map(str, counts)) - set(CURVE_NAMES))
+    if unknown:
+        raise _fail("sub_landmarks", f"unknown curve {', '.join(unknown)}; the curves are "
+                                     f"{', '.join(CURVE_NAMES)}")
+    for name, k in counts.items():
+        if isinstance(k, bool) or not isinstance(k, Integral) or k < 0:
+            raise _fail("sub_landmarks", f"{name}: {k!r} is outside [0, inf); sub-landmarks "
+                                         "on that curve")
+
+
+@dataclass(frozen=True)
 class CurveParams:
     """Parameters of the boundary-curve stage (paper section 3.3).
 
@@ -138,48 +251,24 @@ class CurveParams:
     curve_spacing_mm: float = 0.5
     sub_landmarks: dict[str, int] = field(default_factory=lambda: dict(DEFAULT_SUB_LANDMARKS))
 
+    def __post_init__(self) -> None:
+        """Check every field (see the class docstring for the meanings)."""
+        for f in fields(self):
+            if f.name in _RANGES:
+                allowed, hint = _RANGES[f.name]
+                _check_number(f.name, getattr(self, f.name), allowed, hint)
+        if self.mid_trace not in _MID_TRACES:
+            raise _fail("mid_trace", f"{self.mid_trace!r} is not one of "
+                                     f"{', '.join(map(repr, _MID_TRACES))}")
+        if self.dark_threshold is not None:
+            _check_number("dark_threshold", self.dark_threshold, _DARK_THRESHOLD,
+                          "fixed value threshold (0..255), None = automatic")
+        _check_sub_landmarks(self.sub_landmarks)
+
     def total_sub_landmarks(self) -> int:
         """Sum of ``sub_landmarks`` (55 by default)."""
         return int(sum(self.sub_landmarks.values()))
 
-    def subset(self, *names: str) -> dict[str, Any]:
+    def subset(self, *names: str) -> dict[str, object]:
         """The named fields as a dict (used as cache keys of the steps reading them)."""
         return {n: (dict(v) if isinstance(v := getattr(self, n), dict) else v) for n in names}
-
-    def validated(self) -> CurveParams:
-        """Check ranges; return self. Raises ValueError naming the field."""
-        checks = {
-            "border_px": self.border_px >= 1, "hue_tol": self.hue_tol >= 0,
-            "sat_tol": self.sat_tol >= 0, "val_tol": self.val_tol >= 0,
-            "border_min_inlier": 0 <= self.border_min_inlier <= 1,
-            "mask_clean_px": self.mask_clean_px >= 0,
-            "mid_trace": self.mid_trace in ("contour", "rows"),
-            "silhouette_tol": self.silhouette_tol > 0,
-            "edge_blur_sigma": self.edge_blur_sigma >= 0,
-            "edge_ref_percentile": 0 < self.edge_ref_percentile <= 100,
-            "path_cost_exponent": self.path_cost_exponent > 0,
-            "path_cost_floor": self.path_cost_floor > 0,
-            "corridor_px": self.corridor_px >= 1, "corridor_frac": self.corridor_frac >= 0,
-            "path_min_contrast": self.path_min_contrast >= 0,
-            "path_prior_weight": self.path_prior_weight >= 0,
-            "path_smooth_px": self.path_smooth_px >= 0, "roi_margin_px": self.roi_margin_px >= 0,
-            "dark_ratio": 0 < self.dark_ratio < 1,
-            "dark_threshold": self.dark_threshold is None or 0 < self.dark_threshold < 255,
-            "closing_px": self.closing_px >= 0,
-            "nostril_min_area_px": self.nostril_min_area_px >= 1,
-            "nostril_search_frac": self.nostril_search_frac > 0,
-            "side_w_ratio": self.side_w_ratio > 0, "side_h_ratio": self.side_h_ratio > 0,
-            "side_bulge": -0.5 <= self.side_bulge <= 0.5,
-            "lift_weight": 0 <= self.lift_weight <= 1,
-            "curve_spacing_mm": self.curve_spacing_mm > 0,
-            "sub_landmarks": (set(self.sub_landmarks) <= set(CURVE_NAMES)
-                              and all(int(v) >= 0 for v in self.sub_landmarks.values())),
-        }
-        bad = [k for k, ok in checks.items() if not ok]
-        if bad:
-            raise ValueError(f"CurveParams: invalid value for {', '.join(bad)}")
-        return self
-
-    def with_(self, **changes: Any) -> CurveParams:
-        """A copy with some fields changed."""
-        return replace(self, **changes)

@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from naseview.geometry.polyline import cumulative_length
 from naseview.landmarks import CURVE_NAMES, LANDMARK_IDS, LANDMARKS
-from naseview.stage2_curves.edges import cumulative_length
 
 
 def _share(lengths: np.ndarray, count: int) -> np.ndarray:
@@ -48,6 +48,43 @@ def _share(lengths: np.ndarray, count: int) -> np.ndarray:
 
 def _at(P: np.ndarray, s: np.ndarray, target: np.ndarray) -> np.ndarray:
     return np.stack([np.interp(target, s, P[:, j]) for j in range(P.shape[1])], axis=1)
+
+
+def _sample_loop(P: np.ndarray, anchors: Sequence[tuple[str, int]], count: int,
+                 name: str) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    """``count`` points equally spaced around a closed loop (N, 3) from its anchor."""
+    start = anchors[0][1] if anchors else 0
+    Q = np.roll(P, -start, axis=0)
+    Q = np.vstack([Q, Q[:1]])
+    s = cumulative_length(Q)
+    t = np.arange(1, count + 1) / (count + 1)
+    lid = anchors[0][0] if anchors else None
+    tags: list[dict[str, Any]] = [{"id": f"{name}.{i:02d}", "curve": name, "t": float(ti),
+                                   "between": [lid, lid], "s": float(ti)}
+                                  for i, ti in enumerate(t)]
+    return _at(Q, s, t * s[-1]), tags
+
+
+def _sample_open(P: np.ndarray, anchors: Sequence[tuple[str, int]], count: int,
+                 name: str) -> tuple[np.ndarray, list[dict[str, Any]]]:
+    """``count`` points on an open curve (N, 3), shared among its anchor-to-anchor
+    segments by length, equally spaced inside each."""
+    s = cumulative_length(P)
+    total = s[-1] if s[-1] > 0 else 1.0
+    if len(anchors) < 2:
+        anchors = [("", 0), ("", len(P) - 1)]
+    seg_len = np.array([s[b[1]] - s[a[1]] for a, b in pairwise(anchors)])
+    ks = _share(np.maximum(seg_len, 0.0), count)
+    out = []
+    tags: list[dict[str, Any]] = []
+    for ((la, ia), (lb, ib)), k in zip(pairwise(anchors), ks, strict=True):
+        for j in range(k):
+            frac = (j + 1) / (k + 1)
+            sv = s[ia] + frac * (s[ib] - s[ia])
+            out.append(sv)
+            tags.append({"id": f"{name}.{len(tags):02d}", "curve": name,
+                         "t": float(sv / total), "between": [la, lb], "s": float(frac)})
+    return _at(P, s, np.array(out)), tags
 
 
 def sample_curve(P: ArrayLike, anchors: Sequence[tuple[str, int]], count: int, name: str,
@@ -67,36 +104,7 @@ def sample_curve(P: ArrayLike, anchors: Sequence[tuple[str, int]], count: int, n
     P = np.asarray(P, dtype=np.float64)
     if count <= 0 or len(P) < 2:
         return np.zeros((0, 3)), []
-    tags: list[dict[str, Any]] = []
-    if closed:
-        start = anchors[0][1] if anchors else 0
-        Q = np.roll(P, -start, axis=0)
-        Q = np.vstack([Q, Q[:1]])
-        s = cumulative_length(Q)
-        t = np.arange(1, count + 1) / (count + 1)
-        X = _at(Q, s, t * s[-1])
-        lid = anchors[0][0] if anchors else None
-        for i, ti in enumerate(t):
-            tags.append({"id": f"{name}.{i:02d}", "curve": name, "t": float(ti),
-                         "between": [lid, lid], "s": float(ti)})
-        return X, tags
-    s = cumulative_length(P)
-    total = s[-1] if s[-1] > 0 else 1.0
-    if len(anchors) < 2:
-        anchors = [("", 0), ("", len(P) - 1)]
-    seg_len = np.array([s[b[1]] - s[a[1]] for a, b in pairwise(anchors)])
-    ks = _share(np.maximum(seg_len, 0.0), count)
-    out = []
-    i = 0
-    for ((la, ia), (lb, ib)), k in zip(pairwise(anchors), ks, strict=True):
-        for j in range(k):
-            frac = (j + 1) / (k + 1)
-            sv = s[ia] + frac * (s[ib] - s[ia])
-            out.append(sv)
-            tags.append({"id": f"{name}.{i:02d}", "curve": name, "t": float(sv / total),
-                         "between": [la, lb], "s": float(frac)})
-            i += 1
-    return _at(P, s, np.array(out)), tags
+    return (_sample_loop if closed else _sample_open)(P, anchors, count, name)
 
 
 def landmark_tag(lid: str, anchors: Mapping[str, Sequence[tuple[str, int]]],

@@ -10,11 +10,15 @@ paper's tables:
   interval (t distribution), and %Error = mean |d_pred - d_true| / d_true (paper eq. 22);
 - ``table2``: mean absolute error of n-prn and prn-sn (the paper's Table 2);
 - ``landmarks``: 3D landmark RMSE after the best rigid alignment (Kabsch, no scaling, so a
-  scale error counts).
+  scale error counts);
+- ``tables45`` (stage 2, paper §3.3): the boundary-curve MAE and Hausdorff distance of the
+  paper's Tables 4 and 5 (:mod:`naseview.stage2_curves.metrics`);
+- ``surface`` (stage 3, paper §3.4): the nose surface error of the pipeline's mesh and of
+  each ablation variant (:mod:`naseview.testbed.surface`).
 
-Later stages add their sections to :data:`SECTIONS` (e.g. the boundary-curve Tables 4
-and 5, surface distances). A section computes a dict per case from a :class:`CaseRun`,
-summarises the list of those dicts, and formats lines; everything stays JSON-ready.
+Each is a :class:`Section` in :data:`SECTIONS`: it computes a dict per case from a
+:class:`CaseRun`, summarises the list of those dicts, and formats lines; everything stays
+JSON-ready. The file reads top to bottom as metrics, sections, running.
 
 Example
 -------
@@ -35,10 +39,23 @@ from typing import Any
 
 import numpy as np
 
+from naseview.case import Case, read_case
 from naseview.errors import NaseviewError
-from naseview.geometry.mesh import umeyama
-from naseview.landmarks import TABLE1_DISTANCES, TABLE2_DISTANCES
+from naseview.facemodel import FaceModel, load_face_model
+from naseview.fileio import read_json
+from naseview.geometry.alignment import umeyama
+from naseview.landmarks import CURVE_FAMILIES, TABLE1_DISTANCES, TABLE2_DISTANCES
+from naseview.meshio import read_mesh
+from naseview.pipeline import PipelineParams, PipelineResult, parse_stages, reconstruct
 from naseview.reconstruction import Reconstruction, read_reconstruction
+from naseview.stage2_curves.metrics import (
+    FAMILY_LABELS,
+    PAPER_TABLE4_MAE,
+    PAPER_TABLE5_HAUSDORFF,
+    boundary_errors,
+    px_per_mm_from_truth,
+)
+from naseview.testbed.surface import ablation, nose_surface_samples, surface_error
 
 PAPER_TABLE1_MEAN_MM: dict[str, float] = {
     "mf_l-mf_r": 0.422, "int_l-int_r": 0.957, "alp_l-alp_r": 1.094, "ac_l-ac_r": 0.545,
@@ -49,9 +66,6 @@ PAPER_TABLE1_MEAN_MM: dict[str, float] = {
 
 PAPER_TABLE1_OVERALL = {"mean_error_mm": 0.631, "percent_error": 2.894}
 PAPER_TABLE2_MEAN_MM = 1.034
-
-
-# --------------------------------------------------------------------------- metrics
 
 
 def _key(a: str, b: str) -> str:
@@ -111,7 +125,7 @@ def landmark_rmse_case(pred: dict[str, np.ndarray], truth: dict[str, np.ndarray]
 
 def mean_ci95(values: Iterable[float]) -> dict[str, float]:
     """Mean and 95 % confidence interval of the mean (t distribution) of finite values."""
-    from scipy.stats import t as student_t
+    from scipy.stats import t as student_t  # lazy: scipy.stats adds 0.45 s to every start
 
     x = np.array([v for v in values if v is not None and math.isfinite(v)], dtype=np.float64)
     n = len(x)
@@ -124,17 +138,14 @@ def mean_ci95(values: Iterable[float]) -> dict[str, float]:
     return {"mean": m, "ci_low": m - h, "ci_high": m + h, "n": n}
 
 
-# --------------------------------------------------------------------------- sections
-
-
 @dataclass
 class CaseRun:
     """One evaluated case: its directory, the truth and the pipeline result."""
 
     case_dir: Path
-    case: Any
+    case: Case
     truth: Reconstruction
-    result: Any  # naseview.pipeline.PipelineResult
+    result: PipelineResult
     stages: tuple[int, ...]
 
 
@@ -238,18 +249,7 @@ def _landmarks(run: CaseRun) -> tuple[dict[str, np.ndarray], dict[str, np.ndarra
     return run.result.reconstruction.landmarks, run.truth.landmarks
 
 
-SECTIONS: list[Section] = [
-    Section("table1", "Table 1: landmark distance error (mm)", 1,
-            lambda r: table1_case(*_landmarks(r)), _table1_summary, _table1_format),
-    Section("table2", "Table 2: n-prn and prn-sn absolute error (mm)", 1,
-            lambda r: table2_case(*_landmarks(r)), _table2_summary, _table2_format),
-    Section("landmarks", "3D landmarks", 1,
-            lambda r: landmark_rmse_case(*_landmarks(r)), _rmse_summary, _rmse_format),
-]
-"""The report's sections, in print order. Later stages append theirs."""
 
-
-# --------------------------------------------------------------------------- stage 2 [S2]
 
 
 def boundary_case(run: CaseRun) -> dict[str, Any]:
@@ -259,9 +259,6 @@ def boundary_case(run: CaseRun) -> dict[str, Any]:
     of ``truth_boundaries.json``; px -> mm with the true front-view scale at al_l-al_r
     (:func:`naseview.stage2_curves.metrics.boundary_errors`). Empty without the truth file.
     """
-    from naseview.fileio import read_json
-    from naseview.stage2_curves.metrics import boundary_errors, px_per_mm_from_truth
-
     path = run.case_dir / "truth_boundaries.json"
     if not path.is_file() or "front" not in run.truth.cameras:
         return {}
@@ -271,8 +268,6 @@ def boundary_case(run: CaseRun) -> dict[str, Any]:
 
 
 def _boundary_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
-    from naseview.landmarks import CURVE_FAMILIES
-
     cases = [c for c in cases if c]
     fams = {f: {m: mean_ci95(c["families"][f][m] for c in cases if f in c["families"])
                 for m in ("mae_mm", "hausdorff_mm")} for f in CURVE_FAMILIES}
@@ -282,12 +277,6 @@ def _boundary_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
 
 def _boundary_format(cases: list[dict[str, Any]], summ: dict[str, Any],
                      ids: list[str]) -> list[str]:
-    from naseview.stage2_curves.metrics import (
-        FAMILY_LABELS,
-        PAPER_TABLE4_MAE,
-        PAPER_TABLE5_HAUSDORFF,
-    )
-
     lines = [f"{'boundary':<14}{'MAE':>8}{'95% CI':>15}{'paper':>8}{'Hausdorff':>11}"
              f"{'paper':>8}"]
     for f, s in summ["families"].items():
@@ -303,23 +292,16 @@ def _boundary_format(cases: list[dict[str, Any]], summ: dict[str, Any],
     return lines
 
 
-SECTIONS.append(Section("tables45", "Tables 4-5: boundary-curve MAE and Hausdorff (mm)", 2,
-                        boundary_case, _boundary_summary, _boundary_format))
-
-
-# --------------------------------------------------------------------------- stage 3 [S3]
 
 
 def surface_case(run: CaseRun) -> dict[str, Any]:
     """SPEC §6 surface figures of one case and the stage-3 ablation on the same inputs.
 
     Nose samples of ``truth_face.ply`` (truth landmarks outline the nose) to the refined
-    mesh after rigid landmark alignment (:func:`naseview.stage3_mesh.surface_error`), for the
-    pipeline's mesh and for each :data:`naseview.stage3_mesh.ABLATION_ROWS` variant.
+    mesh after rigid landmark alignment (:func:`naseview.testbed.surface.surface_error`),
+    for the pipeline's mesh and for each :data:`naseview.testbed.surface.ABLATION_ROWS`
+    variant (default stage-3 parameters). Empty without stage 3 or the truth mesh.
     """
-    from naseview.meshio import read_mesh
-    from naseview.stage3_mesh.solve import ablation, nose_surface_samples, surface_error
-
     refined = run.result.refined
     rec = run.result.reconstruction
     if refined is None or not (run.case_dir / "truth_face.ply").is_file():
@@ -329,21 +311,21 @@ def surface_case(run: CaseRun) -> dict[str, Any]:
     out: dict[str, Any] = {"pipeline": surface_error(tV, tF, run.truth.landmarks, refined.V,
                                                      refined.F, rec.landmarks, samples=samples)}
     if refined.model is not None:
-        params = getattr(getattr(run, "params", None), "refine", None)
-        out["ablation"] = ablation(refined.model, rec, tV, tF, run.truth.landmarks, params,
+        out["ablation"] = ablation(refined.model, rec, tV, tF, run.truth.landmarks,
                                    samples=samples)
     return out
 
 
+def _surface_rows(case: dict[str, Any]) -> dict[str, Any]:
+    """Row name -> surface figures of one case: ``pipeline``, then the ablation rows."""
+    return {"pipeline": case["pipeline"], **case.get("ablation", {})}
+
+
 def _surface_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
-    cases = [c for c in cases if c]
-    rows = ["pipeline"] + list(cases[0].get("ablation") or {}) if cases else []
-    out: dict[str, Any] = {}
-    for row in rows:
-        vals = [c["pipeline"] if row == "pipeline" else c["ablation"][row] for c in cases
-                if row == "pipeline" or row in c.get("ablation", {})]
-        out[row] = {k: mean_ci95(v[k] for v in vals) for k in ("mean_mm", "p95_mm")}
-    return out
+    per_case = [_surface_rows(c) for c in cases if c]
+    rows = list(per_case[0]) if per_case else []
+    return {row: {k: mean_ci95(r[row][k] for r in per_case if row in r)
+                  for k in ("mean_mm", "p95_mm")} for row in rows}
 
 
 def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
@@ -360,18 +342,26 @@ def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
     return lines
 
 
-SECTIONS.append(Section("surface", "Nose surface error after rigid alignment (mm)", 3,
-                        surface_case, _surface_summary, _surface_format))
-
-
-# --------------------------------------------------------------------------- running
+SECTIONS: list[Section] = [
+    Section("table1", "Table 1: landmark distance error (mm)", 1,
+            lambda r: table1_case(*_landmarks(r)), _table1_summary, _table1_format),
+    Section("table2", "Table 2: n-prn and prn-sn absolute error (mm)", 1,
+            lambda r: table2_case(*_landmarks(r)), _table2_summary, _table2_format),
+    Section("landmarks", "3D landmarks", 1,
+            lambda r: landmark_rmse_case(*_landmarks(r)), _rmse_summary, _rmse_format),
+    Section("tables45", "Tables 4-5: boundary-curve MAE and Hausdorff (mm)", 2,
+            boundary_case, _boundary_summary, _boundary_format),
+    Section("surface", "Nose surface error after rigid alignment (mm)", 3,
+            surface_case, _surface_summary, _surface_format),
+]
+"""The report's sections, in print order; ``stage`` says which run each needs."""
 
 
 def _case_info(run: CaseRun) -> dict[str, Any]:
     res = run.result
     sfm = res.sfm
     return {
-        "case": run.case.id if run.case is not None else run.case_dir.name,
+        "case": run.case.id,
         "dir": str(run.case_dir),
         "stage_seconds": dict(res.stage_seconds),
         "reprojection_rmse_px": float(sfm.reprojection_rmse_px) if sfm else math.nan,
@@ -380,14 +370,62 @@ def _case_info(run: CaseRun) -> dict[str, Any]:
     }
 
 
-def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]], model: Any = None,
-                   stages: Iterable[int] | str = (1, 2, 3), params: Any = None,
-                   progress: Callable[[str], Any] | None = None) -> dict[str, Any]:
+class _CaseFailed(Exception):
+    """The pipeline failed on one case (the evaluation goes on with the others)."""
+
+    def __init__(self, case_id: str, d: Path, error: NaseviewError) -> None:
+        super().__init__(str(error))
+        self.record = {"case": case_id, "dir": str(d), "error": str(error)}
+
+
+def _evaluate_case(d: Path, model: FaceModel | str | None, stages: tuple[int, ...],
+                   params: PipelineParams | None) -> tuple[dict[str, Any], PipelineResult]:
+    """The pipeline on one case directory and every section of ``stages`` on its result.
+
+    Raises:
+        NaseviewError: no ``truth.json`` (or case.json), or the pipeline failed.
+    """
+    if not (d / "truth.json").is_file():
+        raise NaseviewError(f"{d / 'truth.json'}: file not found; evaluate needs synthetic "
+                            "cases with ground truth (naseview synth)")
+    truth = read_reconstruction(d / "truth.json")
+    case = read_case(d)
+    try:
+        result = reconstruct(case, model=model, stages=stages, params=params)
+    except NaseviewError as e:
+        raise _CaseFailed(case.id, d, e) from e
+    run = CaseRun(d, case, truth, result, stages)
+    info = _case_info(run)
+    for sec in SECTIONS:
+        if sec.stage in stages:
+            info[sec.key] = sec.per_case(run)
+    return info, result
+
+
+def _summary(cases: list[dict[str, Any]], n_failed: int,
+             stages: tuple[int, ...]) -> dict[str, Any]:
+    """Every section's summary over the cases, the counts and the median stage times."""
+    summary = {sec.key: sec.summarize([c[sec.key] for c in cases])
+               for sec in SECTIONS if sec.stage in stages and cases}
+    summary["converged"] = {"ok": len(cases), "failed": n_failed}
+    for name in ("landmarks", "curves", "mesh"):
+        t = [c["stage_seconds"][name] for c in cases if name in c["stage_seconds"]]
+        if t:
+            summary.setdefault("stage_seconds_median", {})[name] = float(np.median(t))
+    return summary
+
+
+def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]],
+                   model: FaceModel | str | None = None,
+                   stages: Iterable[int] | str = (1, 2, 3),
+                   params: PipelineParams | None = None,
+                   progress: Callable[[str], object] | None = None) -> dict[str, Any]:
     """Run the pipeline on synthetic cases and measure every section against the truth.
 
     Args:
         case_dirs: case directories, each with ``truth.json`` (SPEC §7).
-        model, stages, params: passed to :func:`naseview.pipeline.reconstruct`.
+        model, stages, params: passed to :func:`naseview.pipeline.reconstruct` (a model
+            name is loaded once, when stage 3 runs).
         progress: called with one line per finished case.
     Returns:
         ``{"cases": [per-case dict], "failed": [{"case", "error"}], "summary":
@@ -395,50 +433,26 @@ def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]], model: Any = Non
     Raises:
         NaseviewError: a directory without ``truth.json`` or ``case.json``.
     """
-    from naseview.case import read_case
-    from naseview.pipeline import parse_stages, reconstruct
-
     stages = parse_stages(stages)
-    if isinstance(model, str):
-        from naseview.facemodel import load_face_model
-
-        model = load_face_model(model) if 3 in stages else model
-    runs: list[CaseRun] = []
+    if isinstance(model, str) and 3 in stages:
+        model = load_face_model(model)
     cases: list[dict[str, Any]] = []
     failed: list[dict[str, str]] = []
-    for d in case_dirs:
-        d = Path(d)
-        if not (d / "truth.json").is_file():
-            raise NaseviewError(f"{d / 'truth.json'}: file not found; evaluate needs synthetic "
-                                "cases with ground truth (naseview synth)")
-        truth = read_reconstruction(d / "truth.json")
-        case = read_case(d)
+    for d in map(Path, case_dirs):
         try:
-            result = reconstruct(case, model=model, stages=stages, params=params)
-        except NaseviewError as e:
-            failed.append({"case": case.id, "dir": str(d), "error": str(e)})
+            info, result = _evaluate_case(d, model, stages, params)
+        except _CaseFailed as e:
+            failed.append(e.record)
             if progress:
                 progress(f"{d.name}: FAILED {e}")
             continue
-        run = CaseRun(d, case, truth, result, stages)
-        info = _case_info(run)
-        for sec in SECTIONS:
-            if sec.stage in stages:
-                info[sec.key] = sec.per_case(run)
-        runs.append(run)
         cases.append(info)
         if progress:
             t1 = info.get("table1", {}).get("mean_error_mm", math.nan)
             progress(f"{d.name}: Table 1 mean error {_fmt(t1)} mm, stage times "
                      + ", ".join(f"{k} {v:.2f} s" for k, v in result.stage_seconds.items()))
-    summary = {sec.key: sec.summarize([c[sec.key] for c in cases])
-               for sec in SECTIONS if sec.stage in stages and cases}
-    summary["converged"] = {"ok": len(cases), "failed": len(failed)}
-    for name in ("landmarks", "curves", "mesh"):
-        t = [c["stage_seconds"][name] for c in cases if name in c["stage_seconds"]]
-        if t:
-            summary.setdefault("stage_seconds_median", {})[name] = float(np.median(t))
-    return {"stages": list(stages), "cases": cases, "failed": failed, "summary": summary}
+    return {"stages": list(stages), "cases": cases, "failed": failed,
+            "summary": _summary(cases, len(failed), stages)}
 
 
 def format_report(report: dict[str, Any]) -> str:

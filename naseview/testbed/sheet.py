@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import argparse
 import os
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from naseview.camera import Camera
@@ -42,8 +44,6 @@ LEGEND_H = 28
 def _text(img: np.ndarray, text: str, org: tuple[int, int], scale: float,
           color: tuple[int, int, int]) -> int:
     """Text with a dark outline, readable on any backdrop; returns its width (px)."""
-    import cv2
-
     font = cv2.FONT_HERSHEY_SIMPLEX
     for dx, dy in ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, 1), (-1, 1), (1, -1)):
         cv2.putText(img, text, (org[0] + dx, org[1] + dy), font, scale, (0, 0, 0), 1,
@@ -62,6 +62,52 @@ def _project_visible(cam: Camera, X: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return uv, front
 
 
+def _to_tile(s: float) -> Callable[[np.ndarray], tuple[int, int]]:
+    """Photo pixel (2,) -> tile point with 4 fractional bits, for a tile ``s`` times the
+    photo (pixel centres: ``x_tile = (x + 0.5) s - 0.5``)."""
+    def px(uv: np.ndarray) -> tuple[int, int]:
+        return (int(round(((uv[0] + 0.5) * s - 0.5) * 16)),
+                int(round(((uv[1] + 0.5) * s - 0.5) * 16)))
+
+    return px
+
+
+def _draw_reconstruction(img: np.ndarray, cam: Camera, reconstruction: Reconstruction,
+                         clicks: Mapping[str, np.ndarray],
+                         px: Callable[[np.ndarray], tuple[int, int]]) -> list[float]:
+    """Reprojected curves (cyan) and landmarks (red circles joined to their click);
+    returns the reprojection error (px) of every clicked landmark."""
+    for pts in reconstruction.curves.values():
+        uv, front = _project_visible(cam, pts)
+        for a, b, fa, fb in zip(uv[:-1], uv[1:], front[:-1], front[1:], strict=True):
+            if fa and fb:
+                cv2.line(img, px(a), px(b), CURVE_BGR, 1, cv2.LINE_AA, 4)
+    errs = []
+    for lid, X in reconstruction.landmarks.items():
+        uv, front = _project_visible(cam, X)
+        if not front[0]:
+            continue
+        p = px(uv[0])
+        cv2.circle(img, p, 5 * 16, RECON_BGR, 1, cv2.LINE_AA, 4)
+        if lid in clicks:
+            cv2.line(img, p, px(clicks[lid]), RECON_BGR, 1, cv2.LINE_AA, 4)
+            errs.append(float(np.linalg.norm(uv[0] - clicks[lid])))
+    return errs
+
+
+def _draw_clicks(img: np.ndarray, clicks: Mapping[str, np.ndarray],
+                 px: Callable[[np.ndarray], tuple[int, int]]) -> None:
+    """Every click as an outlined cross with its id (helpers magenta, others yellow)."""
+    for lid, uv in clicks.items():
+        color = HELPER_BGR if lid in HELPER_IDS else CLICK_BGR
+        p = px(uv)
+        d = 5 * 16
+        for q0, q1 in (((p[0] - d, p[1]), (p[0] + d, p[1])), ((p[0], p[1] - d), (p[0], p[1] + d))):
+            cv2.line(img, q0, q1, (0, 0, 0), 3, cv2.LINE_AA, 4)
+            cv2.line(img, q0, q1, color, 1, cv2.LINE_AA, 4)
+        _text(img, lid, (p[0] // 16 + 5, p[1] // 16 - 4), 0.36, color)
+
+
 def view_tile(case: Case, view: str, tile: int,
               reconstruction: Reconstruction | None = None) -> np.ndarray:
     """One annotated, downscaled photo of ``case`` with its title bar.
@@ -74,49 +120,19 @@ def view_tile(case: Case, view: str, tile: int,
     Returns:
         (TITLE_H + h, tile, 3) uint8 BGR.
     """
-    import cv2
-
     v = case.views[view]
     photo = case.load_image(view)
     h0, w0 = photo.shape[:2]
     s = tile / w0
-    h = max(1, int(round(h0 * s)))
-    img = cv2.resize(photo, (tile, h), interpolation=cv2.INTER_AREA)
-
-    def px(uv: np.ndarray) -> tuple[int, int]:
-        # pixel centres: x_tile = (x + 0.5) s - 0.5; drawn with 4 fractional bits
-        return (int(round(((uv[0] + 0.5) * s - 0.5) * 16)),
-                int(round(((uv[1] + 0.5) * s - 0.5) * 16)))
-
+    img = cv2.resize(photo, (tile, max(1, int(round(h0 * s)))), interpolation=cv2.INTER_AREA)
+    px = _to_tile(s)
     title = f"{view}  ({v.image}, {len(v.landmarks)} clicks)"
     cam = reconstruction.cameras.get(view) if reconstruction is not None else None
-    if cam is not None:
-        assert reconstruction is not None
-        for pts in reconstruction.curves.values():
-            uv, front = _project_visible(cam, pts)
-            for a, b, fa, fb in zip(uv[:-1], uv[1:], front[:-1], front[1:], strict=True):
-                if fa and fb:
-                    cv2.line(img, px(a), px(b), CURVE_BGR, 1, cv2.LINE_AA, 4)
-        errs = []
-        for lid, X in reconstruction.landmarks.items():
-            uv, front = _project_visible(cam, X)
-            if not front[0]:
-                continue
-            p = px(uv[0])
-            cv2.circle(img, p, 5 * 16, RECON_BGR, 1, cv2.LINE_AA, 4)
-            if lid in v.landmarks:
-                cv2.line(img, p, px(v.landmarks[lid]), RECON_BGR, 1, cv2.LINE_AA, 4)
-                errs.append(float(np.linalg.norm(uv[0] - v.landmarks[lid])))
+    if reconstruction is not None and cam is not None:
+        errs = _draw_reconstruction(img, cam, reconstruction, v.landmarks, px)
         if errs:
             title += f", reprojection mean {np.mean(errs):.2f} px"
-    for lid, uv in v.landmarks.items():
-        color = HELPER_BGR if lid in HELPER_IDS else CLICK_BGR
-        p = px(uv)
-        d = 5 * 16
-        for q0, q1 in (((p[0] - d, p[1]), (p[0] + d, p[1])), ((p[0], p[1] - d), (p[0], p[1] + d))):
-            cv2.line(img, q0, q1, (0, 0, 0), 3, cv2.LINE_AA, 4)
-            cv2.line(img, q0, q1, color, 1, cv2.LINE_AA, 4)
-        _text(img, lid, (p[0] // 16 + 5, p[1] // 16 - 4), 0.36, color)
+    _draw_clicks(img, v.landmarks, px)
     bar = np.full((TITLE_H, tile, 3), 40, dtype=np.uint8)
     _text(bar, title, (8, 21), 0.55, (255, 255, 255))
     return np.vstack([bar, img])
@@ -159,8 +175,6 @@ def write_sheet(case_dir: str | os.PathLike[str], output: str | os.PathLike[str]
                 reconstruction: str | os.PathLike[str] | None = None,
                 tile: int = 640) -> Path:
     """Read a case (and optionally a reconstruction), write the PNG sheet atomically."""
-    import cv2
-
     out = Path(output)
     if out.suffix.lower() != ".png":
         raise NaseviewError(f"{out}: the contact sheet is a PNG; give -o NAME.png")

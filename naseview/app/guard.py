@@ -1,0 +1,202 @@
+"""Who may talk to the server: pages of its own origin, on the host names it serves.
+
+viser accepts a websocket and serves its page to any ``Origin`` and any ``Host``: a page on
+another origin (another local web app, a site the surgeon visits, a DNS-rebinding host
+name that resolves to 127.0.0.1) could connect and receive the patient's photos and mesh.
+:func:`guarded_viser_server` starts viser with every HTTP request and websocket handshake
+checked first by :class:`OriginPolicy`:
+
+- ``Host`` must name the server: a loopback name (``localhost``, ``127.0.0.1``, ``[::1]``)
+  or the address it was deliberately bound to with ``--host``, with the server's port.
+  A wildcard bind (``--host 0.0.0.0``) also accepts IP-literal hosts (rebinding needs a
+  name) and this machine's own host name.
+- ``Origin``, when the client sends one (every browser does), must be ``http://`` + that
+  same host and port: same origin only. A client without ``Origin`` is not a web page.
+
+Anything else gets ``403 Forbidden`` before viser sees it. :func:`refuse_share` disables
+viser's share tunnel on the server side, whatever a client sends: a raw
+``ShareUrlRequest`` message is logged and dropped, never forwarded to the public relay.
+
+Example
+-------
+>>> policy = OriginPolicy.for_bind("127.0.0.1", 8080)
+>>> policy.refusal("localhost:8080", "http://localhost:8080") is None
+True
+>>> policy.refusal("evil.example.com:8080", None)
+"Host 'evil.example.com:8080' is not this server"
+>>> policy.refusal("127.0.0.1:8080", "http://localhost:9999")
+"Origin 'http://localhost:9999' is not this server's page"
+"""
+
+from __future__ import annotations
+
+import http
+import ipaddress
+import logging
+import socket
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+from urllib.parse import urlsplit
+
+import viser
+import viser._messages
+import websockets.asyncio.server
+from websockets.asyncio.server import ServerConnection
+from websockets.http11 import Request, Response
+
+log = logging.getLogger(__name__)
+
+LOOPBACK_NAMES: frozenset[str] = frozenset({"localhost", "127.0.0.1", "::1"})
+WILDCARD_BINDS: frozenset[str] = frozenset({"0.0.0.0", "::", ""})
+
+_PATCH_LOCK = threading.Lock()
+
+
+def _split_host(value: str) -> tuple[str, int | None]:
+    """``"Host"`` header value -> (lower-case name without brackets, port or None)."""
+    parsed = urlsplit("//" + value.strip())
+    try:
+        port = parsed.port
+    except ValueError:
+        return "", None
+    return (parsed.hostname or "").lower(), port
+
+
+def _is_ip_literal(name: str) -> bool:
+    try:
+        ipaddress.ip_address(name)
+    except ValueError:
+        return False
+    return True
+
+
+@dataclass(frozen=True)
+class OriginPolicy:
+    """The host names and port this server answers as.
+
+    Attributes:
+        names: lower-case host names (and IP literals) accepted in ``Host``.
+        port: the server's port (``Host`` must carry it; browsers always send it for a
+            non-default port).
+        any_ip_literal: accept any IP-literal host (a wildcard bind, ``--host 0.0.0.0``).
+    """
+
+    names: frozenset[str]
+    port: int
+    any_ip_literal: bool = False
+
+    @classmethod
+    def for_bind(cls, host: str, port: int) -> OriginPolicy:
+        """The policy of a server bound to ``host``:``port``."""
+        bind = host.strip().strip("[]").lower()
+        names = set(LOOPBACK_NAMES)
+        wildcard = bind in WILDCARD_BINDS
+        if wildcard:
+            names.add(socket.gethostname().lower())
+        else:
+            names.add(bind)
+        return cls(frozenset(names), int(port), any_ip_literal=wildcard)
+
+    def host_ok(self, host_header: str | None) -> bool:
+        """Whether a ``Host`` header names this server."""
+        if not host_header:
+            return False
+        name, port = _split_host(host_header)
+        if port != self.port:
+            return False
+        return name in self.names or (self.any_ip_literal and _is_ip_literal(name))
+
+    def refusal(self, host_header: str | None, origin: str | None) -> str | None:
+        """Why a request with these headers is refused, or None when it is allowed."""
+        if not self.host_ok(host_header):
+            return f"Host {host_header!r} is not this server"
+        if origin is None:
+            return None
+        parts = urlsplit(origin.strip())
+        same = (parts.scheme == "http" and parts.netloc.lower() == str(host_header).lower()
+                and not parts.path.strip("/"))
+        return None if same else f"Origin {origin!r} is not this server's page"
+
+
+ProcessRequest = Callable[[ServerConnection, Request], "Response | None"]
+
+
+def _guarded(policy: OriginPolicy, inner: ProcessRequest | None) -> ProcessRequest:
+    """``process_request`` hook that refuses foreign requests, then defers to ``inner``."""
+
+    def process_request(connection: ServerConnection, request: Request) -> Response | None:
+        why = policy.refusal(request.headers.get("Host"), request.headers.get("Origin"))
+        if why is not None:
+            log.warning("naseview: refused a request for %s: %s", request.path, why)
+            return connection.respond(http.HTTPStatus.FORBIDDEN,
+                                      f"naseview: {why}; open the address naseview printed\n")
+        return inner(connection, request) if inner is not None else None
+
+    return process_request
+
+
+@contextmanager
+def _patched_serve(policy: OriginPolicy) -> Iterator[None]:
+    """While viser starts its server, wrap ``websockets`` ``serve`` with the policy.
+
+    viser 1.1 calls ``websockets.asyncio.server.serve(..., process_request=...)`` from its
+    server thread while :class:`viser.ViserServer` is being constructed (the constructor
+    waits for that thread to be listening), so the patch is needed only for that window.
+    """
+    original = websockets.asyncio.server.serve
+
+    def serve(*args: Any, **kwargs: Any) -> Any:
+        kwargs["process_request"] = _guarded(policy, kwargs.get("process_request"))
+        return original(*args, **kwargs)
+
+    with _PATCH_LOCK:
+        websockets.asyncio.server.serve = serve  # type: ignore[misc,assignment]
+        try:
+            yield
+        finally:
+            websockets.asyncio.server.serve = original  # type: ignore[misc]
+
+
+def refuse_share(server: viser.ViserServer) -> None:
+    """Make the share tunnel impossible on ``server``, whatever a client sends."""
+
+    def refused(*_args: Any, **_kwargs: Any) -> None:
+        log.warning("naseview: a client asked for a public share URL; refused (patient "
+                    "data never leaves this computer)")
+        return None
+
+    # The message handlers call ``self.request_share_url`` at call time: replacing the
+    # bound method on the instance covers them and any later direct call.
+    server.request_share_url = refused  # type: ignore[method-assign]
+    websock = server._websock_server  # viser 1.1 internals, pinned in pyproject
+    for message in (viser._messages.ShareUrlRequest, viser._messages.ShareUrlDisconnect):
+        if message in websock._incoming_handlers:
+            websock.unregister_handler(message)
+    websock.register_handler(viser._messages.ShareUrlRequest,
+                             lambda _client_id, _msg: refused())
+
+
+def guarded_viser_server(host: str, port: int, **kwargs: Any) -> viser.ViserServer:
+    """A :class:`viser.ViserServer` on ``host``:``port`` that answers only its own origin.
+
+    Args:
+        host: the address to bind (127.0.0.1 unless the user chose otherwise).
+        port: the port (> 0: the policy must know it before the first request).
+        **kwargs: passed to :class:`viser.ViserServer`.
+    Returns:
+        the started server, with :func:`refuse_share` applied and the share button hidden.
+    """
+    if port <= 0:
+        raise ValueError("guarded_viser_server needs a fixed port; pick a free one first")
+    policy = OriginPolicy.for_bind(host, port)
+    with _patched_serve(policy):
+        server = viser.ViserServer(host=host, port=port, **kwargs)
+    if server.get_port() != port:
+        server.stop()
+        raise OSError(f"port {port} is in use")
+    refuse_share(server)
+    server.gui.configure_theme(show_share_button=False)
+    return server

@@ -1,0 +1,47 @@
+"""What the app's pages (new patient, patient mode) need from the served app.
+
+:class:`naseview.app.serve.NaseviewApp` is the one implementation; the pages see it
+through :class:`AppHost`, so that they do not import the module that builds them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Protocol
+
+from naseview.app.scene import FaceScene
+from naseview.case import Case
+from naseview.editing.controller import EditController
+
+
+class AppHost(Protocol):
+    """The served app, as the new-patient page and patient mode use it."""
+
+    @property
+    def controller(self) -> EditController | None:
+        """The editor of the open case (None before one is open)."""
+
+    @property
+    def scene(self) -> FaceScene | None:
+        """The 3D scene of the open case (None before one is open)."""
+
+    @property
+    def case(self) -> Case | None:
+        """The case directory with the photos, when available."""
+
+    @property
+    def case_id(self) -> str:
+        """Anonymised id of the open case."""
+
+    @property
+    def credit(self) -> str:
+        """Attribution line of the face model."""
+
+    def open(self, path: Path | None) -> None:
+        """Open a case directory, reconstruction directory or session file."""
+
+    def apply_display(self) -> None:
+        """Show the scene as the panel's display toggles say."""
+
+    def reset_camera(self) -> None:
+        """Frame the nose in every browser."""

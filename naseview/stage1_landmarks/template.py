@@ -1,0 +1,51 @@
+"""The generic nose template that starts stage 1 (paper §3.2) and bounds one-photo depths.
+
+A generic adult nose in the SPEC frame (mm, origin ``g``), written by hand from textbook
+soft-tissue proportions (alar width 34 mm, nasal length n-prn ~ 44 mm, tip projection
+~ 20 mm). It only starts the camera estimation (:mod:`.initial`) and gives a weak depth
+prior to landmarks clicked in one photo (:mod:`.single_view`); it is never part of a
+result.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from naseview.geometry.alignment import umeyama
+
+
+def _with_right_side(half: dict[str, tuple[float, float, float]]
+                     ) -> dict[str, tuple[float, float, float]]:
+    """The midline and ``_l`` landmarks plus the ``_r`` ones mirrored across x = 0."""
+    out = dict(half)
+    for lid, (x, y, z) in half.items():
+        if lid.endswith("_l"):
+            out[lid[:-2] + "_r"] = (-x, y, z)
+    return out
+
+
+TEMPLATE_MM: dict[str, tuple[float, float, float]] = _with_right_side({
+    "g": (0.0, 0.0, 0.0), "n": (0.0, -12.0, -6.0), "k": (0.0, -24.0, -1.0),
+    "r": (0.0, -31.0, 3.0), "prn": (0.0, -47.0, 14.0), "c": (0.0, -53.0, 9.0),
+    "sn": (0.0, -57.0, -3.0),
+    "mf_l": (9.0, -10.0, -11.0), "int_l": (11.0, -40.0, 1.0), "al_l": (17.0, -48.0, -6.0),
+    "alp_l": (7.0, -52.0, 7.0), "alpp_l": (5.0, -55.0, 3.0), "ac_l": (15.0, -52.0, -10.0),
+    "md_l": (6.0, -51.0, 9.0),
+})
+"""id -> (x, y, z) mm of the 21 landmarks of the generic nose (SPEC frame)."""
+
+
+def aligned_template(landmarks: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], float]:
+    """The generic nose template moved onto ``landmarks`` by a least-squares similarity.
+
+    Args:
+        landmarks: id -> (3,) positions in any frame (3+ template landmarks, not collinear).
+    Returns:
+        id -> (3,) template position in the frame of ``landmarks``, and the scale (frame
+        units per template mm).
+    """
+    ids = [i for i in landmarks if i in TEMPLATE_MM]
+    T = np.array([TEMPLATE_MM[i] for i in ids])
+    P = np.array([landmarks[i] for i in ids])
+    s, R, t = umeyama(T, P)
+    return {k: s * R @ np.array(v) + t for k, v in TEMPLATE_MM.items()}, s

@@ -1,0 +1,218 @@
+"""Every tunable of stage 3 (paper §3.4), frozen and validated once, where it is made.
+
+Defaults follow the paper where it gives a value (ARAP: 50 iterations; cotangent smoothing:
+10 iterations, step 0.1, tolerance 1e-5). A value outside its range fails at construction
+with a one-line :class:`~naseview.errors.NaseviewError` naming the field and the range;
+an unknown field name fails as for any dataclass. Change a value with
+:func:`dataclasses.replace`.
+
+Example
+-------
+>>> import dataclasses
+>>> p = dataclasses.replace(RefineParams(), arap_iterations=20)
+>>> p.arap_iterations, p.smooth_step
+(20, 0.1)
+>>> RefineParams(smooth_step=2.0)  # doctest: +ELLIPSIS
+Traceback (most recent call last):
+...
+naseview.errors.NaseviewError: RefineParams.smooth_step: 2.0 is outside (0, 1]; ...
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import NamedTuple
+
+from naseview.errors import NaseviewError
+from naseview.landmarks import CURVE_NAMES, LANDMARK_IDS
+
+
+class _Range(NamedTuple):
+    """Allowed values of a numeric field: ``lo < x`` (``lo <= x`` when ``closed_lo``),
+    ``x <= hi`` (``x < hi`` when ``hi`` is infinite and not ``closed_hi``)."""
+
+    lo: float
+    hi: float
+    closed_lo: bool
+    integer: bool
+    what: str
+
+    def text(self) -> str:
+        lo = f"{'[' if self.closed_lo else '('}{self.lo:g}"
+        hi = "inf]" if math.isinf(self.hi) else f"{self.hi:g}]"
+        return f"{lo}, {hi}"
+
+    def holds(self, x: float) -> bool:
+        return (x >= self.lo if self.closed_lo else x > self.lo) and x <= self.hi
+
+
+_RANGES: dict[str, _Range] = {
+    "n_modes": _Range(0, 100_000, True, True, "identity modes used (None: all)"),
+    "fit_sigma_mm": _Range(0, 50, False, False, "the expected landmark error, mm"),
+    "fit_sub_sigma_mm": _Range(0, 50, False, False, "the expected sub-landmark error, mm"),
+    "fit_iterations": _Range(1, 100, True, True, "alternations of similarity and "
+                                                 "coefficients"),
+    "coeff_limit_sd": _Range(0, 10, False, False, "the coefficient clamp, SD"),
+    "fit_warn_mm": _Range(0, 100, False, False, "the fit residual that warns, mm"),
+    "min_handle_spacing_mm": _Range(0, 20, True, False, "the least spacing of "
+                                                        "sub-landmark handles, mm"),
+    "handle_clearance_mm": _Range(0, 50, True, False, "the region's clearance around "
+                                                      "handles, mm"),
+    "margin_mm": _Range(0, 20, False, False, "the pinned ring around the region, mm"),
+    "warp_bending_mm2": _Range(0, 1000, False, False, "the warp's bending weight, mm^2"),
+    "warp_radius_mm": _Range(0, 200, True, False, "the warp's reach around handles, mm"),
+    "release_mm": _Range(0, math.inf, False, False, "the handle miss that releases it, mm "
+                                                    "(inf: none)"),
+    "arap_iterations": _Range(0, 10_000, True, True, "the ARAP iterations"),
+    "arap_tol_mm": _Range(0, 1, True, False, "the ARAP stopping step, mm"),
+    "arap_anderson": _Range(0, 50, True, True, "the Anderson memory (0: plain ARAP)"),
+    "arap_warn_mm": _Range(0, math.inf, False, False, "the last ARAP step that warns, mm"),
+    "max_handle_displacement_mm": _Range(0, 1000, False, False, "the handle displacement "
+                                                                "cap, mm"),
+    "smooth_iterations": _Range(0, 10_000, True, True, "the smoothing iterations"),
+    "smooth_step": _Range(0, 1, False, False, "the smoothing step (unitless)"),
+    "smooth_tol": _Range(0, 1, True, False, "the smoothing stopping step, mm"),
+}
+"""Numeric field -> allowed range and what it is (the error message's words)."""
+
+
+def _fail(name: str, value: object, allowed: str) -> NaseviewError:
+    return NaseviewError(f"RefineParams.{name}: {value!r} is {allowed}")
+
+
+def _check_number(name: str, value: object, rng: _Range) -> None:
+    """A number of the right kind inside ``rng`` (bools are not numbers here)."""
+    if (isinstance(value, bool) or not isinstance(value, (int, float))
+            or (rng.integer and not isinstance(value, int))):
+        kind = "an integer" if rng.integer else "a number"
+        raise _fail(name, value, f"not {kind} in {rng.text()}; {rng.what}")
+    if math.isnan(value) or not rng.holds(value):
+        raise _fail(name, value, f"outside {rng.text()}; {rng.what}")
+
+
+def _check_names(name: str, value: object, allowed: tuple[str, ...]) -> None:
+    """A tuple of names, each one of ``allowed``."""
+    if not isinstance(value, tuple) or any(v not in allowed for v in value):
+        raise _fail(name, value, f"not a tuple of names from {', '.join(allowed)}")
+
+
+@dataclass(frozen=True)
+class RefineParams:
+    """Every tunable of stage 3. Defaults follow the paper where it gives a value.
+
+    Base fit (:func:`~naseview.stage3_mesh.fit.fit_face_model`, eq. 18):
+        n_modes: identity modes used (``None``: all the model has).
+        fit_sigma_mm: expected landmark error (mm, SD); the prior weight on the
+            coefficients is ``fit_sigma_mm**2`` (MAP with coefficients ~ N(0, 1)).
+        fit_sub_sigma_mm: the same for sub-landmarks (their position along the curve is
+            less certain than a landmark's).
+        fit_iterations: alternations of similarity and coefficients.
+        fit_scale: let the similarity scale (else rigid; stage 1 is already in mm).
+        coeff_limit_sd: coefficients beyond this many SD are clamped, with a warning.
+        fit_warn_mm: a landmark further than this (and than 3x the median) from the fitted
+            face gives a "check this click" warning; an RMS misfit above half of it, a
+            "the model fits poorly" warning.
+
+    Correspondences and region (:mod:`~naseview.stage3_mesh.correspondences`,
+    :func:`~naseview.stage3_mesh.deform.deform_region`):
+        use_sublandmarks: use stage 2's sub-landmarks as handles (and in the fit).
+        sub_landmark_curves: the curves whose sub-landmarks are used (``None``: all nine,
+            the paper's 55). Default: the mid- and ala-curves only. Stage 2's other curves
+            are approximations by construction (side-curve: a circle through int and mf;
+            sill: a planar outline; bottom and C: silhouettes lifted between landmarks)
+            whose sub-landmarks lie 0.6-1.7 mm (mean; up to 6 mm) off the true surface on
+            synthetic cases, and used as hard constraints they made the ICT nose worse
+            (mean surface error 0.30 mm with mid+ala, 0.44 with bottom and C added, 0.76
+            with all; ``benchmarks/bench_stage3.py --synth``).
+        handle_landmarks: the landmark ids used as handles (default: all 21).
+        min_handle_spacing_mm: a sub-landmark whose vertex lies closer than this to an
+            earlier handle (landmarks first) is not used as a handle.
+        handle_clearance_mm: the deformed region is the model's nose region grown so that
+            every handle lies at least this far (along mesh edges) from the fixed ring.
+        margin_mm: width of the ring of vertices around the region pinned to the base, so
+            the seam to the unchanged face is continuous (at least one edge ring).
+
+    Smooth warp of the base (naseview's addition; :mod:`~naseview.stage3_mesh.warp`):
+        use_warp: bend the fitted face towards the ad-landmarks before ARAP, with soft
+            constraints (weights 1 / fit_sigma_mm^2 for landmarks, 1 / fit_sub_sigma_mm^2 for
+            sub-landmarks) and a bi-Laplacian smoothness term. It carries the large,
+            smooth part of the correction that a low-dimensional model (the generic face)
+            cannot; ARAP then only closes the small remainder.
+        warp_bending_mm2: weight of the bending term (mm^2): larger is smoother/stiffer.
+        warp_radius_mm: the warp acts within this distance (along edges) of the handles.
+        release_mm: a handle still further than this from its target after the warp
+            contradicts its neighbours on this face model (e.g. a landmark convention the
+            model does not share); it is not made a hard ARAP constraint (warning), which
+            would crumple the mesh around it. ``inf`` keeps every handle (the paper).
+
+    ARAP (eq. 19-20; paper: Open3D ARAP, 50 iterations):
+        use_arap: run ARAP (``False``: only the base fit, for the ablation).
+        arap_iterations: maximum ARAP iterations (paper 50).
+        arap_tol_mm: stop early when one iteration moves no vertex more than this (mm).
+        arap_anderson: Anderson acceleration memory of the local-global iterations
+            (Peng et al., SIGGRAPH 2018; 0: plain iterations as libigl and the paper).
+        arap_warn_mm: still moving more than this per iteration at the end -> warning.
+        max_handle_displacement_mm: a handle asked to move further than this from its base
+            position is pulled back to this distance, with a warning (a wrong click must
+            not crumple the nose).
+
+    Smoothing (eq. 21; paper: cotangent Laplacian smoothing, 10 iterations, step 0.1,
+    tol 1e-5):
+        use_smoothing: run the smoothing.
+        smooth_iterations, smooth_step, smooth_tol: ``v <- v + step * D^-1 L v`` on the free
+            vertices (D the diagonal of the cotangent Laplacian L, so the step is unitless
+            and the iteration is stable), handles and ring fixed; stops when no vertex moves
+            more than ``smooth_tol`` mm.
+        smooth_displacement: smooth the displacement from the base (default) instead of
+            the positions as the paper does: smoothing positions also flattens the base's
+            own shape (tip, alar creases) and measurably raises the surface error (see
+            ``benchmarks/bench_stage3.py``); smoothing the displacement only evens out
+            what ARAP changed and leaves an unedited nose exactly as it was.
+
+    Raises:
+        NaseviewError: a value outside its range (the message names the field and range).
+    """
+
+    n_modes: int | None = None
+    fit_sigma_mm: float = 1.0
+    fit_sub_sigma_mm: float = 2.0
+    fit_iterations: int = 6
+    fit_scale: bool = True
+    coeff_limit_sd: float = 3.5
+    fit_warn_mm: float = 5.0
+    use_sublandmarks: bool = True
+    sub_landmark_curves: tuple[str, ...] | None = ("mid", "ala_l", "ala_r")
+    handle_landmarks: tuple[str, ...] = LANDMARK_IDS
+    min_handle_spacing_mm: float = 2.0
+    handle_clearance_mm: float = 6.0
+    margin_mm: float = 3.0
+    use_warp: bool = True
+    warp_bending_mm2: float = 0.5
+    warp_radius_mm: float = 25.0
+    release_mm: float = 1.0
+    use_arap: bool = True
+    arap_iterations: int = 50
+    arap_tol_mm: float = 1e-3
+    arap_anderson: int = 5
+    arap_warn_mm: float = 1e-2
+    max_handle_displacement_mm: float = 10.0
+    use_smoothing: bool = True
+    smooth_iterations: int = 10
+    smooth_step: float = 0.1
+    smooth_tol: float = 1e-5
+    smooth_displacement: bool = True
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name in _RANGES:
+                if not (f.name == "n_modes" and value is None):
+                    _check_number(f.name, value, _RANGES[f.name])
+            elif f.name == "sub_landmark_curves":
+                if value is not None:
+                    _check_names(f.name, value, CURVE_NAMES)
+            elif f.name == "handle_landmarks":
+                _check_names(f.name, value, LANDMARK_IDS)
+            elif not isinstance(value, bool):
+                raise _fail(f.name, value, "not True or False")

@@ -1,0 +1,174 @@
+"""End-to-end: a new patient in headless Chromium (Playwright, the system's /usr/bin/chromium).
+
+The four photos of a synthetic case are uploaded through the page's upload buttons, the
+alar width is typed in, every landmark the page asks for is clicked at its true position
+with real mouse events (or skipped with the "Not visible" button where the synthetic
+surgeon could not see it), then "Reconstruct" opens the result in the app. The
+reconstructed landmarks must lie within 0.5 mm of ``truth.json`` (after a rigid
+alignment: the SPEC frame is built from the landmarks themselves, so its axes differ
+slightly from the model frame of the truth). Prints clicks, pointer travel and time.
+
+Skipped when Playwright or Chromium is missing; run with ``-m browser``.
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import viser
+from helpers import wait_for
+from viser import transforms as vtf
+
+from naseview.app.serve import NaseviewApp
+from naseview.case import read_case
+from naseview.facemodel import load_face_model
+from naseview.reconstruction import read_reconstruction
+from naseview.testbed.evaluate import landmark_rmse_case
+from naseview.testbed.synth import synthesize_case
+
+pytestmark = pytest.mark.browser
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+         "--disable-background-networking"]
+UPLOADS = (("Front", "front"), ("Bottom", "bottom"), ("Left", "left"), ("Right", "right"))
+
+
+def screen_xy(camera, X: np.ndarray, box: dict) -> tuple[int, int]:
+    """CSS pixel (integer, like a real mouse) over world point X in the client's canvas."""
+    R = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()           # camera -> world
+    pc = R.T @ (np.asarray(X, float) - np.asarray(camera.position))
+    h, w = camera.image_height, camera.image_width
+    f = (h / 2.0) / np.tan(camera.fov / 2.0)
+    u, v = w / 2.0 + f * pc[0] / pc[2], h / 2.0 + f * pc[1] / pc[2]
+    # viser casts the ray through the centre of the CSS pixel under the pointer
+    return (math.floor(box["x"] + u * box["width"] / w),
+            math.floor(box["y"] + v * box["height"] / h))
+
+
+@pytest.fixture(scope="module")
+def synth_case(tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("synth") / "case"
+    synthesize_case(out, load_face_model("generic"), seed=1, noise_px=0.0)
+    return out
+
+
+def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
+        synth_case: Path, tmp_path: Path, monkeypatch):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    if not Path(CHROMIUM).exists():
+        pytest.skip("chromium not installed")
+    monkeypatch.setenv("NASEVIEW_WORK_DIR", str(tmp_path / "work"))
+    case = read_case(synth_case)
+    truth = read_reconstruction(synth_case / "truth.json")
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    app = NaseviewApp(server, model="generic")
+    page_obj = app.new_patient.annotate
+    try:
+        with sync_api.sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+            try:
+                page = browser.new_page(viewport={"width": 1280, "height": 800})
+                page.goto(f"http://127.0.0.1:{server.get_port()}/")
+                page.wait_for_selector("canvas", timeout=30_000)
+                page.get_by_role("button", name="New patient: photos and landmarks").click()
+                # intake: a text file first (refused with a message, nothing lost), then
+                # the four photos through the real file chooser
+                bad = tmp_path / "notes.txt"
+                bad.write_text("not a photo\n" * 20)
+                with page.expect_file_chooser() as fc:
+                    page.get_by_role("button", name="Front photo").click()
+                fc.value.set_files(str(bad))
+                page.get_by_text("not a JPEG or PNG image").first.wait_for(timeout=10_000)
+                for label, view in UPLOADS:
+                    with page.expect_file_chooser() as fc:
+                        page.get_by_role("button", name=f"{label} photo").click()
+                    fc.value.set_files(str(synth_case / case.views[view].image))
+                    wait_for(lambda v=view: v in page_obj.session.photos, 15, f"{view} photo")
+                al = page.get_by_label("al_l-al_r (mm)")
+                al.fill(f"{case.scale_mm[('al_l', 'al_r')]:.3f}")
+                al.press("Enter")
+                wait_for(lambda: ("al_l", "al_r") in page_obj.session.scale_mm, 10, "al-al")
+                assert page_obj.wait_idle(10)
+
+                box = page.locator("canvas").first.bounding_box()
+                skip = page.get_by_role("button", name="Not visible — skip")
+                clicks = skips = 0
+                travel = 0.0
+                last: tuple[float, float] | None = None
+                t_start = None
+                seen_views: list[str] = []
+                while True:
+                    assert page_obj.wait_idle(10)
+                    target = page_obj.target
+                    if target is None:
+                        break
+                    view, lid = target
+                    if not seen_views or seen_views[-1] != view:
+                        seen_views.append(view)      # the page names the target: read it
+                        page.get_by_text(f"({lid}):").first.wait_for(timeout=10_000)
+                    done = page_obj.session.progress()[0]
+                    truth_xy = case.views[view].landmarks.get(lid)
+                    if truth_xy is None:               # not visible in this photo
+                        bb = skip.bounding_box()
+                        q = (bb["x"] + bb["width"] / 2, bb["y"] + bb["height"] / 2)
+                        skip.click()
+                        skips += 1
+                    else:
+                        # After a photo change the browser may still be moving its camera
+                        # to the new photo: like a user, click again if nothing registered.
+                        for attempt in range(3):
+                            cam = next(iter(server.get_clients().values())).camera
+                            q = screen_xy(cam, page_obj.plane.to_world(truth_xy)[0], box)
+                            page.mouse.click(*q)
+                            try:
+                                wait_for(lambda d=done: page_obj.session.progress()[0] > d,
+                                         4 if attempt < 2 else 10, f"{view} {lid} to register")
+                                break
+                            except AssertionError:
+                                if attempt == 2:
+                                    raise
+                        clicks += 1
+                    t_start = t_start or time.monotonic()
+                    travel += 0.0 if last is None else math.dist(last, q)
+                    last = q
+                    wait_for(lambda d=done: page_obj.session.progress()[0] > d, 10,
+                             f"{view} {lid} to register")
+                seconds = time.monotonic() - (t_start or time.monotonic())
+                photo_w = box["height"] * 0.97      # displayed photo width (square photos)
+                print(f"\nannotation: {clicks} clicks + {skips} skips, pointer travel "
+                      f"{travel:.0f} CSS px = {travel / photo_w:.1f} photo widths, "
+                      f"{seconds:.1f} s in headless Chromium (views {seen_views})")
+
+                s = page_obj.session
+                assert seen_views == ["front", "bottom", "left", "right"]
+                errs = [np.linalg.norm(s.clicks[v][i] - xy)
+                        for v in case.views for i, xy in case.views[v].landmarks.items()]
+                assert len(errs) == clicks and max(errs) < 1.5, max(errs)  # screen px
+                assert s.problems() == []
+                page.screenshot(path=str(tmp_path / "annotated.png"))
+                page.get_by_role("button", name="Reconstruct").click()
+                assert app.wait_ready(60), "the app did not open the reconstruction"
+            finally:
+                browser.close()
+
+        case_dir = tmp_path / "work" / s.case_id / "case"
+        written = read_case(case_dir)                       # the CLI can rerun it
+        assert set(written.views["bottom"].landmarks) >= {"add_l", "add_r"}
+        base = app.controller.baseline
+        assert set(base.landmarks) == set(truth.landmarks)
+        err = landmark_rmse_case(base.landmarks, truth.landmarks)["per_landmark_mm"]
+        worst = max(err, key=err.get)
+        print(f"landmarks vs truth (rigid): mean {np.mean(list(err.values())):.3f} mm, "
+              f"max {err[worst]:.3f} mm ({worst})")
+        assert err[worst] < 0.5, err
+        al = np.linalg.norm(base.landmarks["al_l"] - base.landmarks["al_r"])
+        assert al == pytest.approx(case.scale_mm[("al_l", "al_r")], abs=0.05)
+    finally:
+        app.close()
+        server.stop()

@@ -1,0 +1,108 @@
+"""End-to-end: the app in headless Chromium (Playwright, the system's /usr/bin/chromium).
+
+The page loads, the face is visible in a screenshot (pixel variance where the nose
+projects), and a landmark dragged with real mouse events changes the mesh on the server.
+Skipped when Playwright or Chromium is missing; run with ``-m browser``.
+"""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+import viser
+from helpers import ict_baseline, wait_for
+from viser import transforms as vtf
+
+from naseview.app.serve import NaseviewApp
+
+pytestmark = pytest.mark.browser
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+         "--disable-background-networking"]
+
+
+def project(camera, X: np.ndarray) -> np.ndarray:
+    """Pixel (x, y) of world point X in a client's viewport (viser OpenCV camera)."""
+    R = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()            # camera -> world
+    pc = R.T @ (np.asarray(X, float) - np.asarray(camera.position))
+    h, w = camera.image_height, camera.image_width
+    f = (h / 2.0) / np.tan(camera.fov / 2.0)
+    return np.array([w / 2.0 + f * pc[0] / pc[2], h / 2.0 + f * pc[1] / pc[2]])
+
+
+@pytest.fixture(scope="module")
+def app_server():
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    app = NaseviewApp(server)
+    app.open_baseline(ict_baseline(), case_id="ict-mean")
+    assert app.wait_ready(60)
+    yield server, app
+    app.close()
+    server.stop()
+
+
+def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
+    sync_api = pytest.importorskip("playwright.sync_api")
+    if not Path(CHROMIUM).exists():
+        pytest.skip("chromium not installed")
+    server, app = app_server
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+        try:
+            page = browser.new_page(viewport={"width": 820, "height": 540})
+            page.goto(f"http://127.0.0.1:{server.get_port()}/")
+            page.wait_for_selector("canvas", timeout=30_000)
+            wait_for(lambda: any(c.camera.image_width > 0 and c.camera.fov > 0
+                                 for c in server.get_clients().values()), 30, "a client camera")
+            client = next(iter(server.get_clients().values()))
+            # the app points the camera at the nose (initial camera); wait until applied
+            look = np.asarray(server.initial_camera.look_at)
+            wait_for(lambda: np.linalg.norm(np.asarray(client.camera.look_at) - look) < 1.0,
+                     30, "the initial camera")
+            canvas = page.locator("canvas").first
+            box = canvas.bounding_box()
+            assert box is not None
+            time.sleep(1.0)
+            shot = tmp_path / "page.png"
+            page.screenshot(path=str(shot))
+            img = cv2.imread(str(shot))
+            cam = client.camera
+            sx = box["width"] / cam.image_width
+            sy = box["height"] / cam.image_height
+            base = app.controller.baseline
+            uv = project(cam, base.V[base.nose_ids].mean(0))
+            cx, cy = int(box["x"] + uv[0] * sx), int(box["y"] + uv[1] * sy)
+            crop = img[max(0, cy - 60):cy + 60, max(0, cx - 60):cx + 60].astype(float)
+            assert crop.size and crop.std() > 6.0, "the mesh area is blank"
+            corner = img[5:40, 5:40].astype(float)
+            assert abs(crop.mean() - corner.mean()) > 5.0 or crop.std() > 15.0
+
+            # drag prn upwards with real mouse events
+            prn = app.controller.landmarks["prn"]
+            uv = project(cam, prn)
+            x0, y0 = box["x"] + uv[0] * sx, box["y"] + uv[1] * sy
+            V0 = np.asarray(app.scene.nose.vertices).copy()
+            page.mouse.move(x0, y0)
+            page.mouse.down()
+            for i in range(1, 5):          # each move waits for a (software) frame
+                page.mouse.move(x0, y0 - 9.0 * i)
+            page.mouse.up()
+            ctl = app.controller
+            wait_for(lambda: ctl.history_length >= 2, 20, "the drag to reach the server")
+            assert ctl.wait_idle(20)
+            moved = {k for k, v in ctl.landmarks.items()
+                     if not np.array_equal(v, base.landmarks[k])}
+            assert moved, "no landmark moved"
+            lid = moved.pop()
+            assert ctl.landmarks[lid][1] > base.landmarks[lid][1] + 0.5   # dragged up
+            V1 = np.asarray(app.scene.nose.vertices)
+            assert np.abs(V1 - V0).max() > 0.5                          # mesh changed
+            assert np.abs(ctl.simulation.V - base.V).max() > 0.5
+        finally:
+            browser.close()

@@ -1,0 +1,121 @@
+"""``naseview evaluate``: paper Tables 1-2 and landmark RMSE against synthetic truth."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from helpers import BASE_NOSE, write_projected_case
+from scipy.stats import t as student_t
+
+from naseview.cli import main
+from naseview.errors import NaseviewError
+from naseview.landmarks import TABLE1_DISTANCES
+from naseview.testbed.evaluate import (
+    evaluate_cases,
+    format_report,
+    landmark_rmse_case,
+    mean_ci95,
+    table1_case,
+    table2_case,
+)
+
+TABLE1_KEYS = [f"{a}-{b}" for a, b in TABLE1_DISTANCES]
+
+
+@pytest.fixture(scope="module")
+def tiny_set(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    root = tmp_path_factory.mktemp("evalset")
+    return [write_projected_case(root / f"case-{i}", seed=300 + i, noise_px=1.5)
+            for i in range(3)]
+
+
+def _truth() -> dict[str, np.ndarray]:
+    out = {}
+    for k, p in BASE_NOSE.items():
+        out[k] = np.array(p, float)
+        if k.endswith("_l"):
+            out[k[:-2] + "_r"] = np.array(p, float) * [-1, 1, 1]
+    return out
+
+
+def test_table1_and_table2_of_known_errors():
+    truth = _truth()
+    pred = {k: v.copy() for k, v in truth.items()}
+    d_cn = np.linalg.norm(truth["c"] - truth["sn"])
+    pred["sn"] = truth["c"] + (truth["sn"] - truth["c"]) * (d_cn + 0.5) / d_cn  # c-sn +0.5
+    del pred["md_l"]  # a landmark the reconstruction could not place
+    t1 = table1_case(pred, truth)
+    errs = {k: v["error_mm"] for k, v in t1["distances"].items()}
+    assert list(errs) == TABLE1_KEYS
+    assert errs["c-sn"] == pytest.approx(0.5)
+    assert math.isnan(errs["md_l-md_r"]) and t1["missing"] == 1
+    assert t1["mean_error_mm"] == pytest.approx(0.5 / 10)
+    assert t1["percent_error"] == pytest.approx(100 * 0.5 / d_cn / 10)
+    t2 = table2_case(pred, truth)
+    assert t2["distances"]["prn-sn"]["error_mm"] > 0
+    assert t2["distances"]["n-prn"]["error_mm"] == pytest.approx(0.0)
+    # a rigid motion of the prediction changes nothing
+    R = np.array([[0.0, -1, 0], [1, 0, 0], [0, 0, 1]])
+    moved = {k: R @ v + [5, 6, 7] for k, v in truth.items()}
+    r = landmark_rmse_case(moved, truth)
+    assert r["rmse_mm"] < 1e-9 and r["n"] == 21
+    assert table1_case(moved, truth)["mean_error_mm"] < 1e-9
+
+
+def test_mean_ci95_uses_the_t_distribution():
+    s = mean_ci95([1.0, 2.0, 3.0, float("nan")])
+    h = student_t.ppf(0.975, 2) * 1.0 / math.sqrt(3)
+    assert s["n"] == 3 and s["mean"] == pytest.approx(2.0)
+    assert (s["ci_low"], s["ci_high"]) == pytest.approx((2 - h, 2 + h))
+    assert math.isnan(mean_ci95([4.0])["ci_low"])
+
+
+def test_evaluate_tiny_synthetic_set(tiny_set: list[Path]):
+    lines: list[str] = []
+    report = evaluate_cases(tiny_set, stages=(1,), progress=lines.append)
+    assert len(lines) == 3 and report["failed"] == []
+    summ = report["summary"]
+    assert summ["converged"] == {"ok": 3, "failed": 0}
+    t1 = summ["table1"]
+    assert list(t1["distances"]) == TABLE1_KEYS
+    for k in TABLE1_KEYS:
+        s = t1["distances"][k]
+        assert s["n"] == 3 and s["ci_low"] <= s["mean"] <= s["ci_high"]
+    assert 0 < t1["mean_error_mm"] < 0.6
+    assert 0 < t1["percent_error"]["mean"] < 3.0
+    assert 0 < summ["table2"]["mean_error_mm"]["mean"] < 0.8
+    assert 0 < summ["landmarks"]["rmse_mm"]["mean"] < 1.2
+    assert summ["stage_seconds_median"]["landmarks"] > 0
+    text = format_report(report)
+    assert "Table 1" in text and "Table 2" in text and "%Error" in text
+    for k in TABLE1_KEYS:
+        assert k in text
+
+
+def test_evaluate_command_json_and_failed_case(tiny_set: list[Path], tmp_path: Path, capsys):
+    bad = write_projected_case(tmp_path / "bad", seed=400)
+    case = json.loads((bad / "case.json").read_text())
+    for v in case["views"].values():
+        v["landmarks"].pop("g", None)  # no origin: this case must fail, not the command
+    (bad / "case.json").write_text(json.dumps(case))
+    rc = main(["evaluate", str(tiny_set[0]), str(bad), "--json", "--stages", "1"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["summary"]["converged"] == {"ok": 1, "failed": 1}
+    assert "glabella" in out["failed"][0]["error"]
+    assert set(out["cases"][0]) >= {"case", "table1", "table2", "landmarks", "stage_seconds"}
+    assert out["summary"]["table1"]["distances"]["g-n"]["ci_low"] is None  # one case: no CI
+    rc = main(["evaluate", str(tiny_set[1]), "--stages", "1"])
+    text = capsys.readouterr().out
+    assert rc == 0 and "Table 1: landmark distance error (mm)" in text
+
+
+def test_evaluate_needs_truth(tmp_path: Path):
+    d = write_projected_case(tmp_path / "c", seed=401)
+    (d / "truth.json").unlink()
+    with pytest.raises(NaseviewError, match="truth.json"):
+        evaluate_cases([d], stages=(1,))
