@@ -18,11 +18,9 @@ naseview.errors.NaseviewError: SfmParams.loss_scale_px: 0.0 is outside (0, 100];
 
 from __future__ import annotations
 
-import math
-import numbers
 from dataclasses import dataclass, fields
 
-from naseview.errors import NaseviewError
+from naseview.params import Range, check_choice, check_flag, check_number
 
 LOSSES: tuple[str, ...] = ("linear", "huber", "soft_l1", "cauchy", "arctan")
 """Robust losses of :func:`scipy.optimize.least_squares` that stage 1 accepts."""
@@ -31,39 +29,16 @@ TR_SOLVERS: tuple[str, ...] = ("exact", "lsmr")
 """Trust-region solvers of :func:`scipy.optimize.least_squares` that stage 1 accepts."""
 
 
-@dataclass(frozen=True)
-class _Range:
-    """Allowed interval of a numeric field, and what the field means (for the message)."""
-
-    low: float
-    high: float
-    low_open: bool
-    high_open: bool
-    meaning: str
-    integer: bool = False
-
-    def contains(self, value: float) -> bool:
-        above = value > self.low if self.low_open else value >= self.low
-        below = value < self.high if self.high_open else value <= self.high
-        return above and below
-
-    def text(self) -> str:
-        def num(x: float) -> str:
-            return "inf" if math.isinf(x) else f"{x:g}"
-
-        return (f"{'(' if self.low_open else '['}{num(self.low)}, "
-                f"{num(self.high)}{')' if self.high_open else ']'}")
+def _closed(low: float, high: float, meaning: str,
+            integer: bool = False) -> tuple[Range, str]:
+    return Range(low, high, integer=integer), meaning
 
 
-def _closed(low: float, high: float, meaning: str, integer: bool = False) -> _Range:
-    return _Range(low, high, False, False, meaning, integer)
+def _positive(high: float, meaning: str) -> tuple[Range, str]:
+    return Range(0.0, high, low_open=True), meaning
 
 
-def _positive(high: float, meaning: str) -> _Range:
-    return _Range(0.0, high, True, False, meaning)
-
-
-_RANGES: dict[str, _Range] = {
+_RANGES: dict[str, tuple[Range, str]] = {
     "loss_scale_px": _positive(100.0, "residual (px) where the robust loss flattens"),
     "max_iterations": _closed(1, 100_000, "residual evaluations of one solve", integer=True),
     "rig_yaw_deg": _closed(-180.0, 180.0, "prior yaw (deg) of the profile cameras"),
@@ -75,9 +50,10 @@ _RANGES: dict[str, _Range] = {
     "focal_guess": _positive(100.0, "initial focal length / larger image side"),
     "focal_coupling": _closed(0.0, 10.0, "sd of log(f_photo / f_mean); 0 disables it"),
     "focal_prior_sd": _closed(0.0, 100.0, "sd of log(f / guess); 0 disables it"),
-    "max_focal_factor": _Range(0.25, 1000.0, True, False,
-                               "largest plausible focal length / larger image side"),
-    "tolerance": _Range(0.0, 1.0, True, True, "xtol, ftol and gtol of least_squares"),
+    "max_focal_factor": (Range(0.25, 1000.0, low_open=True),
+                         "largest plausible focal length / larger image side"),
+    "tolerance": (Range(0.0, 1.0, low_open=True, high_open=True),
+                  "xtol, ftol and gtol of least_squares"),
     "min_clicks_per_photo": _closed(1, 21, "landmark clicks needed per photo", integer=True),
     "min_spread_ratio": _closed(0.0, 1.0, "ratio of the 2D singular values of the clicks"),
     "max_rmse_px": _positive(1000.0, "inlier RMSE (px) above which the fit fails"),
@@ -196,32 +172,10 @@ class SfmParams:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.name in _RANGES:
-                _check_number(f.name, value, _RANGES[f.name])
+                check_number("SfmParams", f.name, value, *_RANGES[f.name])
             elif f.name in _CHOICES:
-                _check_choice(f.name, value, _CHOICES[f.name])
+                check_choice("SfmParams", f.name, value, _CHOICES[f.name])
             elif f.name in _FLAGS:
-                _check_flag(f.name, value)
+                check_flag("SfmParams", f.name, value)
             else:  # a new field must be given a check
                 raise AssertionError(f"SfmParams.{f.name} has no check")
-
-
-def _check_number(name: str, value: object, allowed: _Range) -> None:
-    kind = "an integer" if allowed.integer else "a number"
-    ok_type = numbers.Integral if allowed.integer else numbers.Real
-    if isinstance(value, bool) or not isinstance(value, ok_type):
-        raise NaseviewError(f"SfmParams.{name}: {value!r} is not {kind} in "
-                            f"{allowed.text()}; {allowed.meaning}")
-    if not allowed.contains(float(value)):
-        raise NaseviewError(f"SfmParams.{name}: {value!r} is outside {allowed.text()}; "
-                            f"{allowed.meaning}")
-
-
-def _check_choice(name: str, value: object, choices: tuple[str, ...]) -> None:
-    if value not in choices:
-        raise NaseviewError(f"SfmParams.{name}: {value!r} is not one of "
-                            f"{', '.join(repr(c) for c in choices)}")
-
-
-def _check_flag(name: str, value: object) -> None:
-    if not isinstance(value, bool):
-        raise NaseviewError(f"SfmParams.{name}: {value!r} is not True or False")

@@ -23,12 +23,12 @@ CurveParams.lift_weight: 1.5 is outside [0, 1]
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field, fields
-from numbers import Integral, Real
+from dataclasses import dataclass, field, fields, replace
+from numbers import Integral
 
 from naseview.errors import NaseviewError
 from naseview.landmarks import CURVE_NAMES
+from naseview.params import Range, check_choice, check_number
 
 DEFAULT_SUB_LANDMARKS: dict[str, int] = {
     "mid": 12, "bottom": 12, "ala_l": 5, "ala_r": 5, "c": 5,
@@ -45,68 +45,48 @@ class CurveParamsError(NaseviewError, ValueError):
     """
 
 
-@dataclass(frozen=True)
-class _Range:
-    """An interval of allowed values; ``lo_open`` / ``hi_open`` exclude the end."""
-
-    lo: float
-    hi: float = math.inf
-    lo_open: bool = False
-    hi_open: bool = False
-
-    def __contains__(self, value: float) -> bool:
-        above = value > self.lo if self.lo_open else value >= self.lo
-        below = value < self.hi if self.hi_open or math.isinf(self.hi) else value <= self.hi
-        return bool(above and below)
-
-    def __str__(self) -> str:
-        hi_open = self.hi_open or math.isinf(self.hi)
-        return (f"{'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}"
-                f"{')' if hi_open else ']'}")
-
-
-_AT_LEAST_0 = _Range(0.0)
-_POSITIVE = _Range(0.0, lo_open=True)
+_AT_LEAST_0 = Range(0.0)
+_POSITIVE = Range(0.0, low_open=True)
 
 _INT_FIELDS: frozenset[str] = frozenset({"border_px", "mask_clean_px", "roi_margin_px",
                                          "closing_px", "nostril_min_area_px"})
 """Fields that hold a whole number of pixels."""
 
-_RANGES: dict[str, tuple[_Range, str]] = {
-    "border_px": (_Range(1.0), "width (px) of the border that gives the background colour"),
+_RANGES: dict[str, tuple[Range, str]] = {
+    "border_px": (Range(1.0), "width (px) of the border that gives the background colour"),
     "hue_tol": (_AT_LEAST_0, "hue tolerance of the background box (OpenCV hue units)"),
     "sat_tol": (_AT_LEAST_0, "saturation tolerance of the background box"),
     "val_tol": (_AT_LEAST_0, "value tolerance of the background box"),
-    "grey_sat": (_Range(0.0, 255.0), "background saturation below which hue is not used"),
-    "border_min_inlier": (_Range(0.0, 1.0), "fraction of border pixels of background colour"),
+    "grey_sat": (Range(0.0, 255.0), "background saturation below which hue is not used"),
+    "border_min_inlier": (Range(0.0, 1.0), "fraction of border pixels of background colour"),
     "mask_clean_px": (_AT_LEAST_0, "size (px) of the mask opening/closing, 0 = none"),
     "silhouette_tol": (_POSITIVE, "fraction of the g-sn length in the photo"),
     "edge_blur_sigma": (_AT_LEAST_0, "Gaussian blur (px) before Scharr, 0 = none"),
-    "edge_ref_percentile": (_Range(0.0, 100.0, lo_open=True),
+    "edge_ref_percentile": (Range(0.0, 100.0, low_open=True),
                             "percentile of the edge magnitude that counts as full strength"),
     "path_cost_exponent": (_POSITIVE, "exponent of (1 - E) in the path cost (eq. 12)"),
     "path_cost_floor": (_POSITIVE, "cost floor that keeps paths short on flat skin"),
-    "corridor_px": (_Range(1.0), "smallest half-width (px) of the path corridor"),
+    "corridor_px": (Range(1.0), "smallest half-width (px) of the path corridor"),
     "corridor_frac": (_AT_LEAST_0, "corridor half-width as a fraction of the segment"),
     "path_prior_weight": (_AT_LEAST_0, "0 is the paper's cost"),
     "path_min_contrast": (_AT_LEAST_0, "times the median edge strength of the nose region"),
     "path_smooth_px": (_AT_LEAST_0, "Gaussian smoothing (px) of the paths, 0 = none"),
     "roi_margin_px": (_AT_LEAST_0, "margin (px) around the landmarks of a view"),
-    "dark_ratio": (_Range(0.0, 1.0, lo_open=True, hi_open=True),
+    "dark_ratio": (Range(0.0, 1.0, low_open=True, high_open=True),
                    "dark = below this times the median value of the nose region"),
     "closing_px": (_AT_LEAST_0, "diameter (px) of the closing element of eq. 13, 0 = none"),
-    "nostril_min_area_px": (_Range(1.0), "smallest dark area (px^2) taken as a nostril"),
+    "nostril_min_area_px": (Range(1.0), "smallest dark area (px^2) taken as a nostril"),
     "nostril_search_frac": (_POSITIVE, "fraction of the al''-al'' distance"),
     "side_w_ratio": (_POSITIVE, "w2 / w1 of eq. 15, the paper's 1"),
     "side_h_ratio": (_POSITIVE, "h2 / h1 of eq. 15, the paper's 3"),
-    "side_bulge": (_Range(-0.5, 0.5), "fraction of the int-mf distance, 0 is the paper's"),
-    "lift_weight": (_Range(0.0, 1.0),
+    "side_bulge": (Range(-0.5, 0.5), "fraction of the int-mf distance, 0 is the paper's"),
+    "lift_weight": (Range(0.0, 1.0),
                     "0.5 is the paper's midpoint of eq. 10, 1 the point on the line of sight"),
     "curve_spacing_mm": (_POSITIVE, "spacing (mm) of the output polylines"),
 }
 """Allowed range and a reminder of the meaning of every numeric field."""
 
-_DARK_THRESHOLD = _Range(0.0, 255.0, lo_open=True, hi_open=True)
+_DARK_THRESHOLD = Range(0.0, 255.0, low_open=True, high_open=True)
 _MID_TRACES: tuple[str, ...] = ("contour", "rows")
 
 
@@ -114,14 +94,11 @@ def _fail(name: str, message: str) -> CurveParamsError:
     return CurveParamsError(f"CurveParams.{name}: {message}")
 
 
-def _check_number(name: str, value: object, allowed: _Range, hint: str) -> None:
-    """One numeric field: an int (pixel counts) or a real number inside ``allowed``."""
-    kind = Integral if name in _INT_FIELDS else Real
-    if isinstance(value, bool) or not isinstance(value, kind):
-        what = "a whole number" if kind is Integral else "a number"
-        raise _fail(name, f"{value!r} is not {what} in {allowed}; {hint}")
-    if float(value) not in allowed:  # NaN is in no range
-        raise _fail(name, f"{value!r} is outside {allowed}; {hint}")
+def _check_number(name: str, value: object, allowed: Range, hint: str) -> None:
+    """One numeric field: an integer (pixel counts) or a real number inside ``allowed``."""
+    if name in _INT_FIELDS:
+        allowed = replace(allowed, integer=True)
+    check_number("CurveParams", name, value, allowed, hint, error=CurveParamsError)
 
 
 def _check_sub_landmarks(counts: object) -> None:
@@ -257,9 +234,8 @@ class CurveParams:
             if f.name in _RANGES:
                 allowed, hint = _RANGES[f.name]
                 _check_number(f.name, getattr(self, f.name), allowed, hint)
-        if self.mid_trace not in _MID_TRACES:
-            raise _fail("mid_trace", f"{self.mid_trace!r} is not one of "
-                                     f"{', '.join(map(repr, _MID_TRACES))}")
+        check_choice("CurveParams", "mid_trace", self.mid_trace, _MID_TRACES,
+                     error=CurveParamsError)
         if self.dark_threshold is not None:
             _check_number("dark_threshold", self.dark_threshold, _DARK_THRESHOLD,
                           "fixed value threshold (0..255), None = automatic")

@@ -22,79 +22,46 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
-from typing import NamedTuple
 
-from naseview.errors import NaseviewError
 from naseview.landmarks import CURVE_NAMES, LANDMARK_IDS
+from naseview.params import Range, check_flag, check_names, check_number
 
 
-class _Range(NamedTuple):
-    """Allowed values of a numeric field: ``lo < x`` (``lo <= x`` when ``closed_lo``),
-    ``x <= hi`` (``x < hi`` when ``hi`` is infinite and not ``closed_hi``)."""
-
-    lo: float
-    hi: float
-    closed_lo: bool
-    integer: bool
-    what: str
-
-    def text(self) -> str:
-        lo = f"{'[' if self.closed_lo else '('}{self.lo:g}"
-        hi = "inf]" if math.isinf(self.hi) else f"{self.hi:g}]"
-        return f"{lo}, {hi}"
-
-    def holds(self, x: float) -> bool:
-        return (x >= self.lo if self.closed_lo else x > self.lo) and x <= self.hi
+def _R(low: float, high: float, closed_low: bool, integer: bool,  # noqa: N802
+       what: str) -> tuple[Range, str]:
+    """A range ``low < x <= high`` (``low <= x`` when ``closed_low``; ``high`` may be
+    ``inf`` itself, meaning "no limit")."""
+    return Range(low, high, low_open=not closed_low, high_open=False, integer=integer), what
 
 
-_RANGES: dict[str, _Range] = {
-    "n_modes": _Range(0, 100_000, True, True, "identity modes used (None: all)"),
-    "fit_sigma_mm": _Range(0, 50, False, False, "the expected landmark error, mm"),
-    "fit_sub_sigma_mm": _Range(0, 50, False, False, "the expected sub-landmark error, mm"),
-    "fit_iterations": _Range(1, 100, True, True, "alternations of similarity and "
+_RANGES: dict[str, tuple[Range, str]] = {
+    "n_modes": _R(0, 100_000, True, True, "identity modes used (None: all)"),
+    "fit_sigma_mm": _R(0, 50, False, False, "the expected landmark error, mm"),
+    "fit_sub_sigma_mm": _R(0, 50, False, False, "the expected sub-landmark error, mm"),
+    "fit_iterations": _R(1, 100, True, True, "alternations of similarity and "
                                                  "coefficients"),
-    "coeff_limit_sd": _Range(0, 10, False, False, "the coefficient clamp, SD"),
-    "fit_warn_mm": _Range(0, 100, False, False, "the fit residual that warns, mm"),
-    "min_handle_spacing_mm": _Range(0, 20, True, False, "the least spacing of "
+    "coeff_limit_sd": _R(0, 10, False, False, "the coefficient clamp, SD"),
+    "fit_warn_mm": _R(0, 100, False, False, "the fit residual that warns, mm"),
+    "min_handle_spacing_mm": _R(0, 20, True, False, "the least spacing of "
                                                         "sub-landmark handles, mm"),
-    "handle_clearance_mm": _Range(0, 50, True, False, "the region's clearance around "
+    "handle_clearance_mm": _R(0, 50, True, False, "the region's clearance around "
                                                       "handles, mm"),
-    "margin_mm": _Range(0, 20, False, False, "the pinned ring around the region, mm"),
-    "warp_bending_mm2": _Range(0, 1000, False, False, "the warp's bending weight, mm^2"),
-    "warp_radius_mm": _Range(0, 200, True, False, "the warp's reach around handles, mm"),
-    "release_mm": _Range(0, math.inf, False, False, "the handle miss that releases it, mm "
+    "margin_mm": _R(0, 20, False, False, "the pinned ring around the region, mm"),
+    "warp_bending_mm2": _R(0, 1000, False, False, "the warp's bending weight, mm^2"),
+    "warp_radius_mm": _R(0, 200, True, False, "the warp's reach around handles, mm"),
+    "release_mm": _R(0, math.inf, False, False, "the handle miss that releases it, mm "
                                                     "(inf: none)"),
-    "arap_iterations": _Range(0, 10_000, True, True, "the ARAP iterations"),
-    "arap_tol_mm": _Range(0, 1, True, False, "the ARAP stopping step, mm"),
-    "arap_anderson": _Range(0, 50, True, True, "the Anderson memory (0: plain ARAP)"),
-    "arap_warn_mm": _Range(0, math.inf, False, False, "the last ARAP step that warns, mm"),
-    "max_handle_displacement_mm": _Range(0, 1000, False, False, "the handle displacement "
+    "arap_iterations": _R(0, 10_000, True, True, "the ARAP iterations"),
+    "arap_tol_mm": _R(0, 1, True, False, "the ARAP stopping step, mm"),
+    "arap_anderson": _R(0, 50, True, True, "the Anderson memory (0: plain ARAP)"),
+    "arap_warn_mm": _R(0, math.inf, False, False, "the last ARAP step that warns, mm"),
+    "max_handle_displacement_mm": _R(0, 1000, False, False, "the handle displacement "
                                                                 "cap, mm"),
-    "smooth_iterations": _Range(0, 10_000, True, True, "the smoothing iterations"),
-    "smooth_step": _Range(0, 1, False, False, "the smoothing step (unitless)"),
-    "smooth_tol": _Range(0, 1, True, False, "the smoothing stopping step, mm"),
+    "smooth_iterations": _R(0, 10_000, True, True, "the smoothing iterations"),
+    "smooth_step": _R(0, 1, False, False, "the smoothing step (unitless)"),
+    "smooth_tol": _R(0, 1, True, False, "the smoothing stopping step, mm"),
 }
 """Numeric field -> allowed range and what it is (the error message's words)."""
-
-
-def _fail(name: str, value: object, allowed: str) -> NaseviewError:
-    return NaseviewError(f"RefineParams.{name}: {value!r} is {allowed}")
-
-
-def _check_number(name: str, value: object, rng: _Range) -> None:
-    """A number of the right kind inside ``rng`` (bools are not numbers here)."""
-    if (isinstance(value, bool) or not isinstance(value, (int, float))
-            or (rng.integer and not isinstance(value, int))):
-        kind = "an integer" if rng.integer else "a number"
-        raise _fail(name, value, f"not {kind} in {rng.text()}; {rng.what}")
-    if math.isnan(value) or not rng.holds(value):
-        raise _fail(name, value, f"outside {rng.text()}; {rng.what}")
-
-
-def _check_names(name: str, value: object, allowed: tuple[str, ...]) -> None:
-    """A tuple of names, each one of ``allowed``."""
-    if not isinstance(value, tuple) or any(v not in allowed for v in value):
-        raise _fail(name, value, f"not a tuple of names from {', '.join(allowed)}")
 
 
 @dataclass(frozen=True)
@@ -208,11 +175,11 @@ class RefineParams:
             value = getattr(self, f.name)
             if f.name in _RANGES:
                 if not (f.name == "n_modes" and value is None):
-                    _check_number(f.name, value, _RANGES[f.name])
+                    check_number("RefineParams", f.name, value, *_RANGES[f.name])
             elif f.name == "sub_landmark_curves":
                 if value is not None:
-                    _check_names(f.name, value, CURVE_NAMES)
+                    check_names("RefineParams", f.name, value, CURVE_NAMES)
             elif f.name == "handle_landmarks":
-                _check_names(f.name, value, LANDMARK_IDS)
-            elif not isinstance(value, bool):
-                raise _fail(f.name, value, "not True or False")
+                check_names("RefineParams", f.name, value, LANDMARK_IDS)
+            else:
+                check_flag("RefineParams", f.name, value)
