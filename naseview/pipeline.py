@@ -10,8 +10,7 @@
    (:mod:`naseview.stage3_mesh`, result :class:`~naseview.stage3_mesh.RefineResult`).
 
 Each stage is one call below, timed into ``PipelineResult.stage_seconds`` under its name in
-:data:`STAGE_NAMES` and reported through ``progress(stage_name, seconds)``;
-:data:`STAGE_TITLES` is how docs and messages name the stages.
+:data:`naseview.stages.STAGE_NAMES` and reported through ``progress(stage_name, seconds)``.
 :func:`write_outputs` writes the SPEC §5 files (see ``docs/formats.md``).
 
 Example
@@ -21,8 +20,6 @@ Example
 >>> write_outputs(res, "/tmp/out")                                   # doctest: +SKIP
 >>> parse_stages("2,1")
 (1, 2)
->>> STAGE_TITLES[1]
-'stage 1 — landmarks (paper §3.2)'
 """
 
 from __future__ import annotations
@@ -47,16 +44,7 @@ from naseview.reconstruction import Reconstruction, write_reconstruction
 from naseview.stage1_landmarks import SfmParams, SfmResult, bundle_adjust
 from naseview.stage2_curves import CurveParams, CurvesResult, extract_curves
 from naseview.stage3_mesh import RefineParams, RefineResult, refine
-
-STAGE_NAMES: dict[int, str] = {1: "landmarks", 2: "curves", 3: "mesh"}
-"""Stage number -> name: the folders ``stage1_landmarks``, ``stage2_curves`` and
-``stage3_mesh``, the keys of ``stage_seconds`` and the progress lines."""
-
-STAGE_TITLES: dict[int, str] = {
-    n: f"stage {n} — {STAGE_NAMES[n]} (paper §{section})"
-    for n, section in ((1, "3.2"), (2, "3.3"), (3, "3.4"))
-}
-"""Stage number -> the title docs and messages use, e.g. ``"stage 1 — landmarks (paper §3.2)"``."""
+from naseview.stages import STAGE_NAMES
 
 ProgressFn = Callable[[str, float], object]
 """``progress(stage_name, seconds)``, called after each stage."""

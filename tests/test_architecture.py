@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "naseview"
 # and the command line.
 LAYERS: dict[str, int] = {
     "errors": 0, "landmarks": 0,
-    "fileio": 1, "camera": 1, "params": 1,
+    "fileio": 1, "camera": 1, "params": 1, "stages": 0,
     "case": 2, "reconstruction": 2, "meshio": 2,
     "geometry": 3,
     "facemodel": 4, "render": 4, "measurements": 4,

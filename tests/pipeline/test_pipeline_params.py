@@ -10,10 +10,11 @@ import pytest
 
 import naseview
 from naseview.errors import NaseviewError
-from naseview.pipeline import STAGE_NAMES, STAGE_TITLES, PipelineParams, parse_stages
+from naseview.pipeline import PipelineParams, parse_stages
 from naseview.stage1_landmarks import SfmParams
 from naseview.stage2_curves import CurveParams
 from naseview.stage3_mesh import RefineParams
+from naseview.stages import STAGE_NAMES, STAGE_TITLES
 
 
 def test_defaults_and_stage_params_are_accepted() -> None:
