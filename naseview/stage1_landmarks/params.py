@@ -61,7 +61,17 @@ _RANGES: dict[str, tuple[Range, str]] = {
     "suspect_min_px": _closed(0.0, 1000.0, "smallest residual (px) of a suspect click"),
     "suspect_factor": _closed(1.0, 100.0, "suspect residual / median residual"),
     "min_sigma_px": _closed(0.0, 100.0, "floor of the click noise (px)"),
+    "outlier_alpha": (Range(0.0, 0.5, low_open=True),
+                      "false-alarm probability of the click chi-square tests"),
+    "min_px_per_mm": _closed(0.0, 1000.0, "photo resolution (px per mm at the nose) "
+                                          "below which a warning is given"),
     "max_uncertainty_mm": _positive(1000.0, "3D uncertainty (mm) that gets a warning"),
+    "max_asymmetry_mm": _positive(100.0, "distance (mm) off the midline or from the mirror "
+                                         "image, beyond 1 sd, that gets a warning"),
+    "max_view_angle_deg": _closed(0.0, 180.0, "angle (deg) from its view's direction above "
+                                              "which a camera closer to another is swapped"),
+    "max_roll_deg": _closed(0.0, 180.0, "roll (deg) of a photo above which it is "
+                                        "reported rotated"),
     "symmetry_sd_mm": _positive(100.0, "sd (mm) of the symmetry and midline constraints"),
     "template_sd_mm": _positive(1000.0, "sd (mm) of the template depth prior"),
     "max_single_view_sd_mm": _positive(1000.0, "largest depth sd (mm) of a one-photo "
@@ -121,7 +131,25 @@ class SfmParams:
         suspect_min_px, suspect_factor: a click is suspect when its residual exceeds
             ``max(suspect_min_px, suspect_factor * median residual)``.
         min_sigma_px: floor of the click noise (px) used for the 3D uncertainty.
+        outlier_alpha: false-alarm probability of the chi-square tests on the clicks
+            (leave-one-click-out attribution of suspect clicks, midline offsets).
+        min_px_per_mm: a photo with fewer pixels per mm at the nose (focal length /
+            median depth of its landmarks) gets a warning. Measured by the resolution
+            sweep of ``benchmarks/bench_clicks.py`` (generic cases, seeds 1-4, 1.5 px
+            click noise; lowest photo's px/mm -> Table 1 mean error): 8.3 -> 0.192 mm
+            (1024 px), 6.2 -> 0.248 (768), 5.2 -> 0.282 (640), 4.1 -> 0.351 (512), 2.1 ->
+            0.571 (256), 1.6 -> 0.674 (200), 1.0 -> 1.301 mm (120 px); the error passes
+            1.5x its 1024-px value at about 5 px per mm.
         max_uncertainty_mm: a landmark with a larger 3D uncertainty gets a warning.
+        max_asymmetry_mm: a midline landmark farther than this from the midsagittal plane,
+            or a left/right pair whose mirror images are farther apart, beyond their
+            uncertainty (1 sd), gets a warning worded as a finding to confirm (a sideways
+            front-photo click, or a deviated nose).
+        max_view_angle_deg: a camera whose viewing direction is farther than this from its
+            view's (front along -z, left along -x, right along +x, bottom from below at
+            ``bottom_elevation_deg``) and closer to another view's gets a swap warning.
+        max_roll_deg: a photo whose subject's up is rolled by more than this from the
+            image's up gets a rotation (EXIF orientation) warning.
         drop_suspects: re-solve once without suspect clicks that leave-one-out
             triangulation pins on one photo (landmarks clicked in 3+ photos); they are
             reported as ignored.
@@ -161,7 +189,12 @@ class SfmParams:
     suspect_min_px: float = 3.0
     suspect_factor: float = 4.0
     min_sigma_px: float = 0.5
+    outlier_alpha: float = 0.01
+    min_px_per_mm: float = 5.0
     max_uncertainty_mm: float = 3.0
+    max_asymmetry_mm: float = 1.0
+    max_view_angle_deg: float = 30.0
+    max_roll_deg: float = 45.0
     drop_suspects: bool = True
     symmetric_fill: bool = True
     symmetry_sd_mm: float = 1.0

@@ -41,7 +41,8 @@ class SuspectClick:
         if self.other_views:
             others = " and ".join(repr(v) for v in self.other_views)
             return (f"landmark {self.landmark!r}: the clicks in photos {self.view!r} and "
-                    f"{others} disagree ({self.residual_px:.1f} px); check both")
+                    f"{others} disagree ({self.residual_px:.1f} px) and none can be shown "
+                    "wrong; all kept, down-weighted; check both")
         action = "it was left out; check it" if self.ignored else "check it"
         return (f"click {self.landmark!r} in photo {self.view!r} is {self.residual_px:.1f} px "
                 f"from where the other photos put it; {action}")

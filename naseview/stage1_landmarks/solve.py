@@ -43,11 +43,19 @@ from naseview.stage1_landmarks.frame import (
 )
 from naseview.stage1_landmarks.initial import hypotheses, initial_cameras
 from naseview.stage1_landmarks.params import SfmParams
+from naseview.stage1_landmarks.plausibility import (
+    resolution_warnings,
+    symmetry_warnings,
+    view_warnings,
+)
 from naseview.stage1_landmarks.result import SfmResult, SuspectClick
 from naseview.stage1_landmarks.single_view import place_single
 from naseview.stage1_landmarks.suspects import (
+    Attribution,
     Click,
     attribute_suspects,
+    moved_landmarks,
+    moved_message,
     report_clicks,
     robust_stats,
     without_observations,
@@ -177,8 +185,9 @@ def _bundle_adjust(case: Case, params: SfmParams) -> SfmResult:
     clicks = _Clicks.of(case)
     check_shared_clicks(case, clicks.views, clicks.point_ids)
     base = problem.build_problem(case, clicks.views, clicks.point_ids, params)
-    fit, dropped = _without_suspects(_best_hypothesis(case, base, params), params)
-    return _finish(case, params, fit, clicks, dropped)
+    fit, att = _without_suspects(_best_hypothesis(case, base, params), params,
+                                 _gauge(case, clicks.point_ids))
+    return _finish(case, params, fit, clicks, att)
 
 
 def _best_hypothesis(case: Case, base: problem.Problem, params: SfmParams) -> _Fit:
@@ -202,22 +211,21 @@ def _best_hypothesis(case: Case, base: problem.Problem, params: SfmParams) -> _F
     return best
 
 
-def _without_suspects(fit: _Fit, params: SfmParams) -> tuple[_Fit, list[Click]]:
-    """With ``params.drop_suspects``, solve again without the clicks pinned as wrong by
-    leave-one-out triangulation; the clicks left out."""
+def _without_suspects(fit: _Fit, params: SfmParams, gauge: Gauge
+                      ) -> tuple[_Fit, Attribution | None]:
+    """With ``params.drop_suspects``, the solve without the clicks that leave-one-click-out
+    re-solves show wrong (:func:`.suspects.attribute_suspects`), and that attribution."""
     if not params.drop_suspects:
-        return fit, []
-    culprits = attribute_suspects(fit.prob, fit.sol, params)
-    if not culprits:
-        return fit, []
-    prob, dropped = without_observations(fit.prob, culprits)
-    return _Fit(prob, problem.solve(prob, fit.sol.x, params), fit.hypothesis), dropped
+        return fit, None
+    att = attribute_suspects(fit.prob, fit.sol, params, gauge)
+    return _Fit(att.prob, att.sol, fit.hypothesis), att
 
 
 def _finish(case: Case, params: SfmParams, fit: _Fit, clicks: _Clicks,
-            dropped: list[Click]) -> SfmResult:
+            att: Attribution | None) -> SfmResult:
     """Checks, gauge, uncertainty, residuals and one-photo landmarks of a solved problem."""
     prob, sol = fit.prob, fit.sol
+    dropped, unsure = _attributed_clicks(att)
     res_norm = problem.click_residuals(prob, sol)
     suspect, inlier_rmse = robust_stats(res_norm, params)
     check_fit(case, prob, res_norm, inlier_rmse, suspect, params)
@@ -225,7 +233,7 @@ def _finish(case: Case, params: SfmParams, fit: _Fit, clicks: _Clicks,
     sigma = click_sigma(prob, sol, params)
     scene = _provisional_scene(prob, sol, gauge, sigma)
     residuals, suspects = report_clicks(case, prob, res_norm, suspect, clicks.seen_in,
-                                        dropped, scene.cameras, scene.landmarks)
+                                        dropped, scene.cameras, scene.landmarks, unsure)
     warnings = [sc.message() for sc in suspects]
     if not sol.success:
         warnings.append(f"bundle adjustment stopped after {sol.nfev} evaluations without "
@@ -240,11 +248,21 @@ def _finish(case: Case, params: SfmParams, fit: _Fit, clicks: _Clicks,
     if "g" not in prob.point_ids:
         scene = _origin_at_glabella(scene, prob.point_ids)
     check_not_mirrored(case, scene.landmarks)
-    warnings += _focal_warnings(scene.cameras, params)
+    shown = {v: [k for k in case.views[v].landmarks if k in scene.landmarks]
+             for v in scene.cameras}
+    low_res, low_views, blurred = resolution_warnings(scene.cameras, scene.landmarks, shown,
+                                                      params)
+    warnings[:0] = view_warnings(scene.cameras, params, blurred)  # explains the rest: first
+    warnings += low_res + _focal_warnings({v: c for v, c in scene.cameras.items()
+                                           if v not in blurred}, params)
     uncertainty = {k: standard_uncertainty(c) for k, c in scene.covariance.items()}
     _add_one_photo_residuals(case, scene, placed, clicks.seen_in, residuals)
     warnings += _one_photo_warnings(placed, left_out, clicks.seen_in, uncertainty)
-    warnings += _uncertainty_warnings(prob.point_ids, clicks.seen_in, uncertainty, params)
+    warnings += _uncertainty_warnings(prob.point_ids, clicks.seen_in, uncertainty, params,
+                                      low_views)
+    warnings += _moved_warnings(att, gauge, (prob, sol), dropped, unsure, uncertainty)
+    warnings += symmetry_warnings({k: scene.landmarks[k] for k in prob.point_ids},
+                                  scene.covariance, clicks.seen_in, params)
     landmarks = _in_landmark_order(scene.landmarks)
     return SfmResult(
         landmarks=landmarks, cameras=scene.cameras, residuals_px=residuals,
@@ -255,6 +273,44 @@ def _finish(case: Case, params: SfmParams, fit: _Fit, clicks: _Clicks,
         one_photo=dict(placed), left_out=tuple(left_out),
         sigma_px=sigma, hypothesis=fit.hypothesis, converged=bool(sol.success),
         n_evaluations=int(sol.nfev))
+
+
+def _attributed_clicks(att: Attribution | None
+                       ) -> tuple[list[Click], list[tuple[str, tuple[str, ...]]]]:
+    """The clicks left out, and (landmark, photos) of the disagreements none of whose
+    clicks could be shown wrong."""
+    if att is None or att.before is None:
+        return [], []
+    before = att.before[0]
+    _, dropped = without_observations(before, att.dropped)
+    unsure = [(before.point_ids[before.obs_point[g[0]]],
+               tuple(before.views[before.obs_view[k]] for k in g)) for g in att.ambiguous]
+    return dropped, unsure
+
+
+def _moved_warnings(att: Attribution | None, gauge: Gauge,
+                    final: tuple[problem.Problem, OptimizeResult], dropped: list[Click],
+                    unsure: list[tuple[str, tuple[str, ...]]],
+                    uncertainty: dict[str, float]) -> list[str]:
+    """The landmarks that leaving out a click, or not knowing which of disagreeing clicks
+    is right, moves by more than their uncertainty, with the distances."""
+    if att is None or att.before is None:
+        return []
+    out = []
+    lost = frozenset(lid for _, lid in dropped) | frozenset(lid for lid, _ in unsure)
+    if dropped:
+        moved = moved_message(moved_landmarks(gauge, final, [att.before], lost), uncertainty)
+        if moved:
+            what = ", ".join(f"{lid!r} in photo {v!r}" for v, lid in dropped)
+            out.append(f"leaving out the click(s) {what} moved landmark(s) {moved}; their "
+                       "positions now rest on the other photos")
+    for (lid, views), alts in zip(unsure, att.alternatives, strict=True):
+        moved = moved_message(moved_landmarks(gauge, final, alts, lost), uncertainty)
+        if moved:
+            out.append(f"landmark {lid!r}: depending on which of the clicks in photos "
+                       f"{', '.join(repr(v) for v in views)} is wrong, landmark(s) {moved} "
+                       "move; check those clicks")
+    return out
 
 
 def _gauge(case: Case, point_ids: list[str]) -> Gauge:
@@ -339,12 +395,23 @@ def _one_photo_warnings(placed: dict[str, str], left_out: list[str],
 
 
 def _uncertainty_warnings(point_ids: list[str], seen_in: dict[str, list[str]],
-                          uncertainty: dict[str, float], params: SfmParams) -> list[str]:
-    """The adjusted landmarks more uncertain than ``max_uncertainty_mm``."""
-    return [f"landmark {lid!r} is poorly determined (+-{uncertainty[lid]:.1f} mm): the "
-            f"photos that show it ({', '.join(seen_in[lid])}) see it from similar "
-            "directions; click it in a photo taken from another side"
-            for lid in point_ids if uncertainty[lid] > params.max_uncertainty_mm]
+                          uncertainty: dict[str, float], params: SfmParams,
+                          low_res: frozenset[str]) -> list[str]:
+    """The adjusted landmarks more uncertain than ``max_uncertainty_mm``: in one line
+    blamed on the resolution when a photo that shows them is low-resolution
+    (``low_res``), else each on the viewing directions."""
+    poor = [lid for lid in point_ids if uncertainty[lid] > params.max_uncertainty_mm]
+    by_res = [lid for lid in poor if set(seen_in[lid]) & low_res]
+    out = [f"landmark {lid!r} is poorly determined (+-{uncertainty[lid]:.1f} mm): the "
+           f"photos that show it ({', '.join(seen_in[lid])}) see it from similar "
+           "directions; click it in a photo taken from another side"
+           for lid in poor if lid not in by_res]
+    if by_res:
+        u = [uncertainty[lid] for lid in by_res]
+        out.insert(0, f"landmark(s) {', '.join(repr(lid) for lid in by_res)} are poorly "
+                      f"determined (+-{min(u):.1f} to {max(u):.1f} mm) because of the low "
+                      "photo resolution; use higher-resolution photos")
+    return out
 
 
 def _in_landmark_order(landmarks: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

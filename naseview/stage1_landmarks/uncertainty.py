@@ -59,6 +59,11 @@ def landmark_blocks(cov: np.ndarray, point_ids: list[str]) -> dict[str, np.ndarr
     return {lid: cov[3 * j:3 * j + 3, 3 * j:3 * j + 3] for j, lid in enumerate(point_ids)}
 
 
+GAUGE_SD_MM = 0.05
+"""A landmark sd below this (mm) is the gauge's (the origin ``g`` is fixed by it), not a
+measured one: warnings neither print it nor compare with it."""
+
+
 def standard_uncertainty(cov: np.ndarray) -> float:
     """Root of the trace of a (3, 3) covariance (mm), 0 for a non-positive trace."""
     return float(math.sqrt(max(np.trace(cov), 0.0)))

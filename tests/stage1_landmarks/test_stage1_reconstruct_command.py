@@ -14,7 +14,7 @@ from helpers import table1_errors, write_projected_case
 
 from naseview.case import read_case
 from naseview.cli import main
-from naseview.reconstruction import read_reconstruction
+from naseview.reconstruction import output_case_dir, read_reconstruction
 
 
 def test_reconstruct_command_writes_reconstruction_json(tmp_path: Path, capsys):
@@ -31,8 +31,9 @@ def test_reconstruct_command_writes_reconstruction_json(tmp_path: Path, capsys):
     for key in ("landmark_uncertainty_mm", "residuals_px", "suspect_clicks", "warnings"):
         assert key in rec.extra
     assert set(rec.extra["landmark_uncertainty_mm"]) == set(rec.landmarks)
-    # the output names its case, so `naseview serve OUT` can show the photos
-    assert Path(rec.extra["case_dir"]) == case_dir.resolve()
+    # the output names its case folder relative to itself, bound to that case's case.json
+    assert rec.extra["case_dir"] == "../case"
+    assert output_case_dir(tmp_path / "out", rec) == case_dir.resolve()
     assert rec.measurements["n-prn"] == pytest.approx(
         np.linalg.norm(rec.landmarks["n"] - rec.landmarks["prn"]))
     rc = main(["reconstruct", str(case_dir), "-o", str(tmp_path / "o2"), "--stages", "2,3"])
