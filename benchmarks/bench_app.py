@@ -22,9 +22,9 @@ from collections import defaultdict
 
 import msgspec
 import numpy as np
-import viser
 from _shared import use_shared_ict
 
+from naseview.app.guard import guarded_viser_server
 from naseview.app.serve import NaseviewApp
 from naseview.editing.baseline import baseline_from_face_model
 from naseview.facemodel import load_face_model
@@ -47,7 +47,7 @@ def main() -> None:
     use_shared_ict()
     model = load_face_model("ict")
     baseline = baseline_from_face_model(model)
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     app = NaseviewApp(server)
     t0 = time.perf_counter()
     app.open_baseline(baseline, case_id="ict-mean")

@@ -16,8 +16,6 @@ from __future__ import annotations
 
 import math
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,10 +24,24 @@ import numpy as np
 
 from naseview.camera import intrinsics
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_json, image_size, read_image, read_json, write_image
+from naseview.fileio import (
+    atomic_write_bytes,
+    atomic_write_json,
+    image_size,
+    read_image,
+    read_json,
+    resolve_stored_path,
+    write_error,
+    write_image,
+)
 from naseview.landmarks import ALL_IDS, LANDMARK_IDS, VIEWS
+from naseview.params import Range
 
 CASE_FORMAT = "naseview.case/1"
+
+SCALE_MM_RANGE = Range(0.0, 500.0, low_open=True, high_open=True)
+"""Accepted calliper distances (mm): positive, and below 500 mm (no nose is that large;
+a larger value is a typing error, e.g. micrometres)."""
 
 
 @dataclass
@@ -204,8 +216,8 @@ def _parse_view(path: Path, name: str, views_obj: dict[str, Any], root: Path,
     image = v.get("image")
     if not isinstance(image, str) or not image:
         raise _err(path, f"views.{name}.image", "expected the photo's file name")
+    img_path = resolve_stored_path(image, root, root, path, f"views.{name}.image")
     if check_images:
-        img_path = root / image
         if not img_path.is_file():
             raise _err(path, f"views.{name}.image",
                        f"photo {img_path} not found; put it next to case.json")
@@ -237,8 +249,12 @@ def _parse_scale(path: Path, scale_obj: Any) -> dict[tuple[str, str], float]:
         if pair is None:
             raise _err(path, f"scale_mm.{key}",
                        'expected "<id>-<id>" of two different landmarks, e.g. "al_l-al_r"')
-        if not isinstance(d, (int, float)) or isinstance(d, bool) or not (0 < d < 500):
-            raise _err(path, f"scale_mm.{key}", "expected a positive distance in mm")
+        if not isinstance(d, (int, float)) or isinstance(d, bool) or not math.isfinite(d):
+            raise _err(path, f"scale_mm.{key}", f"{d!r} is not a number; expected a positive "
+                                                f"calliper distance in mm in {SCALE_MM_RANGE}")
+        if float(d) not in SCALE_MM_RANGE:
+            raise _err(path, f"scale_mm.{key}", f"{d!r} is outside {SCALE_MM_RANGE}; expected "
+                                                "a positive calliper distance in mm")
         scale[pair] = float(d)
     return scale
 
@@ -278,13 +294,13 @@ def write_case(case: Case, out_dir: str | os.PathLike[str],
         if name not in images and not (case.root / v.image).is_file():
             raise NaseviewError(f"{case.root / v.image}: photo for view {name!r} not found")
     parse_case(case.to_json(), case.root, check_images=False)  # validates ids and values
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise write_error(out, e, kept=False) from None
     for name, v in case.views.items():
         if name in images:
             write_image(out / v.image, images[name])
         elif (case.root / v.image).resolve() != (out / v.image).resolve():
-            fd, tmp = tempfile.mkstemp(dir=out, prefix=f".{v.image}.", suffix=".tmp")
-            os.close(fd)
-            shutil.copyfile(case.root / v.image, tmp)
-            os.replace(tmp, out / v.image)
+            atomic_write_bytes(out / v.image, (case.root / v.image).read_bytes())
     return atomic_write_json(out / "case.json", case.to_json())

@@ -119,17 +119,39 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     Raises:
         NaseviewError: missing file, unknown suffix, unreadable or empty mesh.
     """
-    import trimesh  # lazy: see mesh_bytes
-
     path = Path(path)
     ext = _suffix(path)
     if not path.is_file():
         raise NaseviewError(f"{path}: mesh file not found")
     try:
-        loaded = trimesh.load(io.BytesIO(path.read_bytes()), file_type=ext, process=False,
+        data = path.read_bytes()
+    except OSError as e:
+        raise NaseviewError(f"{path}: cannot read ({one_line(e.strerror or e)})") from None
+    return mesh_from_bytes(data, ext, path)
+
+
+def mesh_from_bytes(data: bytes, file_type: str, where: str | os.PathLike[str]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Parse the content of a mesh file of ``file_type`` (see :func:`read_mesh`).
+
+    Args:
+        data: the file content.
+        file_type: one of :data:`MESH_FORMATS`.
+        where: the file, for errors.
+    Returns:
+        ``(V, F)``: (n, 3) finite float64 vertices, (m, 3) int64 triangles whose ids lie
+        in ``0..n-1``.
+    Raises:
+        NaseviewError: unreadable, empty, non-finite or out-of-range mesh.
+    """
+    import trimesh  # lazy: see mesh_bytes
+
+    ext = _suffix(Path(f"mesh.{file_type}"))
+    try:
+        loaded = trimesh.load(io.BytesIO(data), file_type=ext, process=False,
                               force="mesh", merge_norm=True, merge_tex=True)
     except Exception as e:  # trimesh raises many types on corrupt files
-        raise NaseviewError(f"{path}: not a readable {ext.upper()} mesh ({type(e).__name__}); "
+        raise NaseviewError(f"{where}: not a readable {ext.upper()} mesh ({type(e).__name__}); "
                             "re-export it as a triangle mesh") from None
     V = np.asarray(getattr(loaded, "vertices", np.zeros((0, 3))), dtype=np.float64)
     F = np.asarray(getattr(loaded, "faces", np.zeros((0, 3))), dtype=np.int64)
@@ -137,8 +159,8 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
         V, inverse = np.unique(V, axis=0, return_inverse=True)
         F = inverse.reshape(-1)[F]
     if len(V) == 0 or len(F) == 0 or F.ndim != 2 or F.shape[1] != 3:
-        raise NaseviewError(f"{path}: holds no triangles; expected a triangle mesh")
-    return V, F
+        raise NaseviewError(f"{where}: holds no triangles; expected a triangle mesh")
+    return _check_mesh(V, F, str(where))
 
 
 class ObjPolygons(NamedTuple):

@@ -4,14 +4,18 @@ import each other)."""
 from __future__ import annotations
 
 import functools
+import importlib.util
 import math
 import os
+import struct
 import time
+import zlib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import cv2
 import numpy as np
+import pytest
 
 from naseview.camera import Camera, look_at
 from naseview.case import Case, View, write_case
@@ -33,6 +37,35 @@ def wait_for(cond: Callable[[], object], timeout: float, what: str) -> None:
             return
         time.sleep(0.02)
     raise AssertionError(f"timed out waiting for {what}")
+
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
+                  "--disable-background-networking"]
+
+
+def browser_or_skip() -> None:
+    """Check Playwright and Chromium for a browser test: skip without them on a
+    developer's machine, fail when ``CI=true`` (CI must run every browser test)."""
+    missing = ("playwright" if importlib.util.find_spec("playwright") is None
+               else CHROMIUM if not Path(CHROMIUM).exists() else None)
+    if missing is None:
+        return
+    if os.environ.get("CI", "").lower() == "true":
+        pytest.fail(f"{missing} is missing; CI must run the browser tests")
+    pytest.skip(f"{missing} is missing")
+
+
+def bomb_png(width: int, height: int) -> bytes:
+    """A decompression bomb: a small, valid PNG header declaring ``width`` x ``height``
+    RGB pixels, with 64 rows of zeros as its data (a few hundred KB at most)."""
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    ihdr = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    rows = (b"\x00" * (1 + 3 * width)) * 64
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(rows, 9))
+            + chunk(b"IEND", b""))
 
 
 def png_bytes(image_bgr: np.ndarray) -> bytes:

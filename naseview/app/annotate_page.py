@@ -16,6 +16,14 @@ next landmark should be, and as small cyan dots for the other remaining ones.
 ``naseview reconstruct``) and opens it in the app (:class:`naseview.app.serve.NaseviewApp`),
 which reconstructs with progress in its panel. Every change is autosaved in
 ``WORK/in-progress/<id>/`` and the page offers to resume it after a reload or restart.
+A new patient always gets a fresh folder; an id typed that another patient has is refused
+with one line, and "Open patient <id>" opens that patient instead, on purpose
+(:class:`naseview.intake.patients.PatientFolders`).
+
+Uploads: the photo buttons are limited while the file streams in
+(:class:`naseview.app.upload_limit.UploadLimit`, ``MAX_UPLOAD_BYTES``): a larger photo is
+dropped at its first message, never held in memory; a decompression bomb is refused by
+the pixel check before decoding; either way the page shows one line.
 
 Navigation: a left-drag on the photo draws a box and zooms into it (it does not orbit,
 which would tilt the photo), the wheel zooms, a right-drag pans; "Whole photo" / "Nose"
@@ -27,8 +35,10 @@ and are queued to one worker thread, so fast clicking never reorders landmarks.
 
 from __future__ import annotations
 
+import html
 import logging
 import queue
+import re
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -44,16 +54,14 @@ from naseview.app.landmark_diagrams import LandmarkDiagrams
 from naseview.app.patient_mode import PatientMode
 from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
 from naseview.app.photo_plane import PhotoPlane, disc_mesh, ring_mesh
+from naseview.app.upload_limit import UploadLimit
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, describe
 from naseview.intake.guidance import Guidance
-from naseview.intake.session import (
-    AnnotationSession,
-    default_case_id,
-    default_work_dir,
-    list_in_progress,
-)
+from naseview.intake.patients import PatientFolders
+from naseview.intake.photos import MAX_UPLOAD_BYTES, upload_too_large
+from naseview.intake.session import AnnotationSession, InProgress, default_case_id
 from naseview.landmarks import LANDMARKS, VIEWS
 
 log = logging.getLogger(__name__)
@@ -71,6 +79,19 @@ NoticeColor = Literal["blue", "red", "green"]
 
 GuiEvent = viser.GuiEvent[Any]
 """A GUI callback's event (``event.client`` is None for values the server assigns)."""
+
+
+_MARKDOWN_SPECIAL = re.compile(r"([\\`*_{}\[\]()#+!|~>-])")
+
+
+def markdown_text(text: str) -> str:
+    """``text`` shown literally in a viser markdown element, which renders raw HTML
+    unsanitized: a file name such as ``<img src=x onerror=...>.jpg`` must stay text.
+
+    >>> print(markdown_text("<b>front_1</b>.jpg"))
+    &lt;b&gt;front\\_1&lt;/b&gt;.jpg
+    """
+    return _MARKDOWN_SPECIAL.sub(r"\\\1", html.escape(text, quote=False))
 
 
 def _view_of(label: str) -> str:
@@ -94,7 +115,8 @@ class AnnotatePage:
                  diagram_model: FaceModel | str | None = None) -> None:
         self.server = server
         self.app = app
-        self.work_dir = Path(work_dir) if work_dir else default_work_dir()
+        self.folders = PatientFolders(work_dir)
+        self.work_dir = self.folders.root
         self.diagrams = LandmarkDiagrams(diagram_model)
         self.session: AnnotationSession | None = None
         self.view = VIEW_ORDER[0]
@@ -122,7 +144,11 @@ class AnnotatePage:
         self._sent: dict[tuple[int, str], object] = {}
         self._intake_open = False
         self._last_upload = 0.0
+        self._taken_id: str | None = None      # an id typed that another patient has
         self._build_gui()
+        self.upload_limit = UploadLimit(server, MAX_UPLOAD_BYTES, self._on_upload_refused)
+        for btn in self.uploads.values():
+            self.upload_limit.watch(btn)
         threading.Thread(target=self.diagrams.warm, name="naseview-diagrams",
                          daemon=True).start()
 
@@ -151,6 +177,9 @@ class AnnotatePage:
                                                  visible=False, icon=viser.Icon.PENCIL)
                 self.case_id = gui.add_text("Case id", default_case_id(),
                                             hint="Anonymised id: no patient names")
+                self.open_btn = gui.add_button("Open that patient", visible=False,
+                                               icon=viser.Icon.FOLDER_OPEN,
+                                               hint="Open the patient who has this id")
                 self.other = gui.add_text("Other distances", "",
                                           hint="Optional calliper distances, e.g. "
                                                "n-prn=45.2, mf_l-mf_r=18")
@@ -228,6 +257,7 @@ class AnnotatePage:
         self.rec_btn.on_click(safe(lambda e: self.reconstruct()))
         self.close_btn.on_click(safe(lambda e: self.hide()))
         self.resume_btn.on_click(safe(lambda e: self._on_resume()))
+        self.open_btn.on_click(safe(lambda e: self._on_open_existing()))
         self.change_btn.on_click(safe(lambda e: self._toggle_intake()))
 
     # worker
@@ -256,14 +286,13 @@ class AnnotatePage:
 
     # lifecycle
     def start(self, case_id: str | None = None) -> AnnotationSession:
-        """Show the page with a new patient (``in-progress/<id>`` under the work dir)."""
-        cid = case_id or default_case_id()
-        folder = self.work_dir / "in-progress" / cid
-        k = 2
-        while (folder / "annotation.json").exists():
-            folder = self.work_dir / "in-progress" / f"{cid}-{k}"
-            k += 1
-        session = AnnotationSession.create(folder, folder.name)
+        """Show the page with a new patient in a fresh folder (``in-progress/<id>`` under
+        the work dir, :meth:`PatientFolders.new_session`).
+
+        Raises:
+            NaseviewError: ``case_id`` is given and another patient has it.
+        """
+        session = self.folders.new_session(case_id)
         self._attach(session)
         return session
 
@@ -280,10 +309,10 @@ class AnnotatePage:
         if self.session is not None and self.session.case_dir is None:
             self._attach(self.session)
             return
-        found = [(p, m) for p, m in list_in_progress(self.work_dir / "in-progress")
-                 if not m.get("case_dir")]
+        found = [a for a in self.folders.annotations()
+                 if not a.finished and a.problem is None]
         if found:
-            self.resume(found[0][0])
+            self.resume(found[0].folder)
         else:
             self.start()
 
@@ -292,6 +321,7 @@ class AnnotatePage:
             self.session = session
             self.override = None
             self.guidance = None
+            self._offer_open(None)
             set_value(self.case_id, session.case_id)
             al = session.scale_mm.get(("al_l", "al_r"))
             set_value(self.alal, float(al) if al else 0.0)
@@ -372,6 +402,7 @@ class AnnotatePage:
                 log.debug("naseview: could not reset the app camera", exc_info=True)
 
     def close(self) -> None:
+        self.upload_limit.close()
         self._queue.put(None)
         with self._hint_cond:
             self._hint_request = -2
@@ -418,31 +449,75 @@ class AnnotatePage:
         self.show_error(None)
         self.submit(self._update_panel)
 
+    def _on_upload_refused(self, client: viser.ClientHandle | None, name: str,
+                           nbytes: int) -> None:
+        """:class:`UploadLimit`: an upload went over the limit while streaming."""
+        message = upload_too_large(name or "photo", nbytes)
+        self.submit(lambda: self.show_error(message, client))
+
     def _on_case_id(self) -> None:
+        """The typed id becomes the patient's, unless another patient has it: then the
+        id stays as it was, the page says so and offers to open that patient."""
         s = self._need_session()
-        s.set_case_id(self.case_id.value)
+        typed = str(self.case_id.value)
+        try:
+            self.folders.rename(s, typed)
+        except NaseviewError:
+            found = self.folders.find(typed)
+            self._offer_open(found.case_id if found is not None else None)
+            raise
+        self._offer_open(None)
+        self.show_error(None)
         self.submit(self._update_panel)
+
+    def _offer_open(self, case_id: str | None) -> None:
+        """Show (or with ``None`` hide) the button that opens the patient ``case_id``."""
+        self._taken_id = case_id
+        if case_id is not None:
+            self.open_btn.label = f"Open patient {case_id}"
+        self.open_btn.visible = case_id is not None
+
+    def _on_open_existing(self) -> None:
+        """Open, on purpose, the patient whose id was typed: its unfinished annotation,
+        else its case in the 3D app."""
+        cid = self._taken_id
+        found = self.folders.find(cid) if cid else None
+        if found is None:
+            self._offer_open(None)
+            raise NaseviewError(f"no patient {cid!r} to open any more; type the id again")
+        if found.annotation is not None:
+            self.hide()
+            self.resume(found.annotation)
+        elif found.case_dir is not None and self.app is not None:
+            self.hide()
+            self.app.open(found.case_dir)
+        else:
+            raise NaseviewError(f"{found.case_dir}: open it with naseview serve "
+                                f"{found.case_dir}")
 
     def _on_resume(self) -> None:
         name = self.resume_dd.value
-        for p, m in list_in_progress(self.work_dir / "in-progress"):
-            if self._resume_label(p, m) == name:
+        for a in self.folders.annotations():
+            if self._resume_label(a) == name:
+                if a.problem is not None:
+                    raise NaseviewError(a.problem)
                 self.hide()
-                self.resume(p)
+                self.resume(a.folder)
                 return
         if name.startswith("New patient"):
             self.hide()
             self.start()
 
     @staticmethod
-    def _resume_label(p: Path, m: dict[str, Any]) -> str:
-        n = sum(len(c) for c in m.get("clicks", {}).values())
-        return f"{m.get('id', p.name)} · {n} clicks · {str(m.get('updated', ''))[:16]}"
+    def _resume_label(a: InProgress) -> str:
+        if a.problem is not None:
+            return f"{a.case_id} · damaged ({a.folder.name})"
+        return f"{a.case_id} · {a.clicks} clicks · {a.updated[:16]}"
 
     def _refresh_resume_list(self) -> None:
-        items = list_in_progress(self.work_dir / "in-progress")
-        labels = [self._resume_label(p, m) for p, m in items
-                  if self.session is None or p != self.session.folder]
+        items = self.folders.annotations()
+        labels = [self._resume_label(a) for a in items
+                  if self.session is None or a.folder != self.session.folder]
         if labels:
             self.resume_dd.options = tuple(labels) + ("New patient (empty)",)
             self.resume_dd.visible = True
@@ -924,8 +999,8 @@ class AnnotatePage:
         """Write the case directory and open it in the app (which reconstructs it)."""
         s = self._need_session()
         self.wait_idle(10.0)
-        out = self.work_dir / s.case_id / "case"
-        path = s.write_case(out)
+        out = self.folders.case_dir(s.case_id)
+        path = s.write_case(out)       # never over another patient's case
         self.rec_md.content = (f"Case saved in `{out}`  \nRerun: `naseview reconstruct "
                                f"{out} -o {out.parent / 'reconstruction'}`")
         self.events.append((time.monotonic(), "reconstruct"))
@@ -941,7 +1016,7 @@ class AnnotatePage:
         if not message:
             self.error.visible = False
             return
-        self.error.content = f"<span style='color:#c0392b'>**{message}**</span>"
+        self.error.content = f"<span style='color:#c0392b'>**{markdown_text(message)}**</span>"
         self.error.visible = True
         self.notify("naseview", message, client, color="red")
 

@@ -13,9 +13,15 @@ checked first by :class:`OriginPolicy`:
 - ``Origin``, when the client sends one (every browser does), must be ``http://`` + that
   same host and port: same origin only. A client without ``Origin`` is not a web page.
 
-Anything else gets ``403 Forbidden`` before viser sees it. :func:`refuse_share` disables
-viser's share tunnel on the server side, whatever a client sends: a raw
-``ShareUrlRequest`` message is logged and dropped, never forwarded to the public relay.
+Anything else gets ``403 Forbidden`` before viser sees it. Every page it does serve says
+that no other site may frame it, and that it loads nothing from anywhere but itself
+(:data:`PAGE_HEADERS`). :func:`refuse_share` disables viser's share tunnel on the server
+side, whatever a client sends: a raw ``ShareUrlRequest`` message is logged and dropped,
+never forwarded to the public relay.
+
+:func:`check_listen` makes a bad ``--host`` / ``--port`` a one-line error: viser alone
+would wait forever for a server that cannot listen (port 70000, an address that is not
+this computer's) and silently move to the next port when the chosen one is busy.
 
 Example
 -------
@@ -30,6 +36,7 @@ True
 
 from __future__ import annotations
 
+import errno
 import http
 import ipaddress
 import logging
@@ -37,7 +44,7 @@ import socket
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 from urllib.parse import urlsplit
 
@@ -47,10 +54,27 @@ import websockets.asyncio.server
 from websockets.asyncio.server import ServerConnection
 from websockets.http11 import Request, Response
 
+from naseview.errors import NaseviewError
+
 log = logging.getLogger(__name__)
 
 LOOPBACK_NAMES: frozenset[str] = frozenset({"localhost", "127.0.0.1", "::1"})
 WILDCARD_BINDS: frozenset[str] = frozenset({"0.0.0.0", "::", ""})
+PORT_RANGE: tuple[int, int] = (0, 65535)
+"""Ports ``--port`` accepts (0: any free port, chosen by the system)."""
+
+PAGE_HEADERS: dict[str, str] = {
+    # no other site may show the app inside its own page (clickjacking, UI redress)
+    "X-Frame-Options": "DENY",
+    # the page loads and connects only to this server (no CDN, no tracker, no relay)
+    "Content-Security-Policy": ("default-src 'self' data: blob: 'unsafe-inline' "
+                                "'unsafe-eval' 'wasm-unsafe-eval'; frame-ancestors 'none'; "
+                                "form-action 'none'; base-uri 'none'"),
+    "Cross-Origin-Resource-Policy": "same-origin",
+    "X-Content-Type-Options": "nosniff",
+    "Referrer-Policy": "no-referrer",
+}
+"""Headers added to every HTTP response the server sends."""
 
 _PATCH_LOCK = threading.Lock()
 
@@ -80,7 +104,8 @@ class OriginPolicy:
     Attributes:
         names: lower-case host names (and IP literals) accepted in ``Host``.
         port: the server's port (``Host`` must carry it; browsers always send it for a
-            non-default port).
+            non-default port); 0: the port each request arrived on (a server started on
+            port 0 learns its port only when the system binds it).
         any_ip_literal: accept any IP-literal host (a wildcard bind, ``--host 0.0.0.0``).
     """
 
@@ -128,12 +153,22 @@ def _guarded(policy: OriginPolicy, inner: ProcessRequest | None) -> ProcessReque
     """``process_request`` hook that refuses foreign requests, then defers to ``inner``."""
 
     def process_request(connection: ServerConnection, request: Request) -> Response | None:
-        why = policy.refusal(request.headers.get("Host"), request.headers.get("Origin"))
+        active = policy if policy.port else replace(policy,
+                                                    port=int(connection.local_address[1]))
+        why = active.refusal(request.headers.get("Host"), request.headers.get("Origin"))
         if why is not None:
             log.warning("naseview: refused a request for %s: %s", request.path, why)
-            return connection.respond(http.HTTPStatus.FORBIDDEN,
-                                      f"naseview: {why}; open the address naseview printed\n")
-        return inner(connection, request) if inner is not None else None
+            response = connection.respond(
+                http.HTTPStatus.FORBIDDEN,
+                f"naseview: {why}; open the address naseview printed\n")
+        else:
+            answer = inner(connection, request) if inner is not None else None
+            if answer is None:            # a websocket handshake of this server's page
+                return None
+            response = answer
+        for name, value in PAGE_HEADERS.items():
+            response.headers[name] = value
+        return response
 
     return process_request
 
@@ -179,24 +214,69 @@ def refuse_share(server: viser.ViserServer) -> None:
                              lambda _client_id, _msg: refused())
 
 
+def _busy(host: str, port: int) -> NaseviewError:
+    return NaseviewError(f"port {port} on {host} is in use (another naseview or another "
+                         "program); stop it or pass a free --port")
+
+
+def check_listen(host: str, port: int) -> None:
+    """Fail with one line when a server cannot listen on ``host``:``port``.
+
+    Binds (and releases) every address ``host`` resolves to, as the server will.
+
+    Raises:
+        NaseviewError: ``port`` outside :data:`PORT_RANGE`, the port in use, or ``host``
+            not an address of this computer.
+    """
+    lo, hi = PORT_RANGE
+    if isinstance(port, bool) or not isinstance(port, int) or not lo <= port <= hi:
+        raise NaseviewError(f"--port must be an integer in {lo}-{hi} (0: any free port), "
+                            f"got {port!r}")
+    fix = ("use the default 127.0.0.1 (this computer only) or one of this computer's own "
+           "network addresses")
+    try:
+        infos = list(dict.fromkeys(socket.getaddrinfo(
+            host or None, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)))
+    except (socket.gaierror, UnicodeError) as e:
+        raise NaseviewError(f"--host {host!r} is not a known address ({e}); {fix}") from None
+    for family, kind, proto, _name, address in infos:
+        with socket.socket(family, kind, proto) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as asyncio does
+            if family == socket.AF_INET6 and hasattr(socket, "IPPROTO_IPV6"):
+                probe.setsockopt(socket.IPPROTO_IPV6, socket.IPV6_V6ONLY, 1)
+            try:
+                probe.bind(address)
+            except OSError as e:
+                if e.errno == errno.EADDRINUSE:
+                    raise _busy(host, port) from None
+                if e.errno == errno.EACCES:
+                    raise NaseviewError(f"--port {port} needs administrator rights on this "
+                                        "system; pass a --port above 1023") from None
+                raise NaseviewError(f"--host {host!r}: cannot listen on {address[0]} "
+                                    f"({e.strerror}); {fix}") from None
+
+
 def guarded_viser_server(host: str, port: int, **kwargs: Any) -> viser.ViserServer:
     """A :class:`viser.ViserServer` on ``host``:``port`` that answers only its own origin.
 
     Args:
         host: the address to bind (127.0.0.1 unless the user chose otherwise).
-        port: the port (> 0: the policy must know it before the first request).
+        port: the port, in :data:`PORT_RANGE`; 0: any free port (``get_port()`` says
+            which; every request is checked against the port it arrived on).
         **kwargs: passed to :class:`viser.ViserServer`.
     Returns:
         the started server, with :func:`refuse_share` applied and the share button hidden.
+    Raises:
+        NaseviewError: see :func:`check_listen`; a busy port is an error, never a silent
+            move to the next one.
     """
-    if port <= 0:
-        raise ValueError("guarded_viser_server needs a fixed port; pick a free one first")
+    check_listen(host, port)
     policy = OriginPolicy.for_bind(host, port)
     with _patched_serve(policy):
         server = viser.ViserServer(host=host, port=port, **kwargs)
-    if server.get_port() != port:
-        server.stop()
-        raise OSError(f"port {port} is in use")
+    if port and server.get_port() != port:  # taken in the moment since check_listen
+        server.stop()                       # (its requests were refused: wrong port)
+        raise _busy(host, port)
     refuse_share(server)
     server.gui.configure_theme(show_share_button=False)
     return server

@@ -8,8 +8,10 @@ browser that connects; all of them see the same case and each other's edits. Dra
 landmark re-runs stage 3's ARAP deformation (paper §3.4) through
 :mod:`naseview.editing`.
 
-Security: binds 127.0.0.1 unless ``--host`` says otherwise, never requests a share URL
-and hides the share button.
+Security: binds 127.0.0.1 unless ``--host`` says otherwise; the server
+(:func:`naseview.app.guard.guarded_viser_server`) answers only its own page on its own host
+names (another site's page, a DNS-rebinding name: 403) and refuses share-tunnel requests
+whatever a client sends.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from naseview.app.export import (
     measurements_json,
     mesh_file,
 )
+from naseview.app.guard import guarded_viser_server
 from naseview.app.gui_value import set_value
 from naseview.app.panels import (
     Panels,
@@ -61,6 +64,7 @@ from naseview.errors import NaseviewError
 from naseview.facemodel import store
 from naseview.facemodel.ict import ICT_CREDIT
 from naseview.pipeline import PipelineParams, PipelineResult, reconstruct
+from naseview.reconstruction import output_case_dir
 from naseview.stage1_landmarks import SfmResult
 from naseview.stage2_curves import CurveParams
 from naseview.stage3_mesh import RefineParams
@@ -74,6 +78,9 @@ moving vertex ids)``."""
 STAGE_LABELS: dict[int, str] = {1: "landmarks (bundle adjustment)", 2: "curves",
                                 3: "mesh (ARAP)"}
 """What the progress line calls each pipeline stage while it runs."""
+
+SHUTDOWN_WAIT_S = 60.0
+"""Ctrl-C: how long ``naseview serve`` waits for a running reconstruction to finish."""
 
 _P = TypeVar("_P", CurveParams, RefineParams)
 
@@ -216,7 +223,7 @@ class NaseviewApp:
     def _open_session(self, path: Path) -> None:
         """A saved session: its baseline and edits exactly, photos from its case."""
         session = load_session(path)
-        self._open_case_from(session.app.get("case_dir"))
+        self._open_case_from(session.case_folder)
         self.case_id = str(session.app.get("case_id", path.stem))
         self.credit = str(session.app.get("credit", ""))
         self._apply_param_values(session.app.get("params", {}), str(path))
@@ -228,8 +235,8 @@ class NaseviewApp:
         """``naseview reconstruct`` output: its baseline, photos from the case it names."""
         baseline = baseline_from_output_dir(path)
         rec = baseline.reconstruction
-        self._open_case_from((rec.extra.get("case_dir") if rec else None)
-                             or (path if (path / "case.json").is_file() else None))
+        self._open_case_from(lambda: output_case_dir(path, rec) or (
+            path if (path / "case.json").is_file() else None))
         self.case_id = self.case.id if self.case is not None else path.name
         mesh = rec.extra.get("mesh", {}) if rec else {}
         self.credit = str(mesh.get("credit", "") if isinstance(mesh, dict) else "")
@@ -254,13 +261,14 @@ class NaseviewApp:
             return False
         return self.controller.wait_idle(max(0.1, end - time.monotonic()))
 
-    def _open_case_from(self, case_dir: str | Path | None) -> None:
-        """Photos of the case directory ``case_dir`` (optional for editing)."""
+    def _open_case_from(self, find: Callable[[], Path | None]) -> None:
+        """Photos of the case directory ``find()`` names, checked to stay inside its
+        folder (optional for editing)."""
         self.case = None
-        if not case_dir:
-            return
         try:
-            self.case = read_case(Path(case_dir))
+            case_dir = find()
+            if case_dir is not None:
+                self.case = read_case(case_dir)
         except NaseviewError as e:  # photos are optional for editing
             log.warning("naseview: photos unavailable: %s", e)
             self.panels.residuals.content = f"Photos unavailable: {e}"
@@ -656,8 +664,13 @@ def start_app(path: Path | None, host: str = "127.0.0.1", port: int = 8080,
               model: str | None = None,
               solver_factory: SolverFactory | None = None
               ) -> tuple[viser.ViserServer, NaseviewApp]:
-    """Start the server and open ``path``; returns ``(server, app)`` (non-blocking)."""
-    server = viser.ViserServer(host=host, port=port, verbose=False)
+    """Start the server and open ``path``; returns ``(server, app)`` (non-blocking).
+
+    Raises:
+        NaseviewError: ``host``:``port`` cannot be listened on (busy port, port out of
+            range, an address that is not this computer's).
+    """
+    server = guarded_viser_server(host, port, verbose=False)
     try:
         app = NaseviewApp(server, model=model, solver_factory=solver_factory)
         app.open(path)
@@ -691,6 +704,9 @@ def serve_command(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         pass
     finally:
+        # a reconstruction or solve still in native code when the interpreter exits
+        # aborts the process ("terminate called without an active exception"): let it end
+        app.wait_ready(SHUTDOWN_WAIT_S)
         app.close()
         server.stop()
     return 0

@@ -25,6 +25,7 @@ Example
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,9 +38,15 @@ from scipy.spatial import cKDTree
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
 from naseview.measurements import clinical_measurements
-from naseview.meshio import read_mesh
+from naseview.meshio import mesh_from_bytes
 from naseview.pipeline import PipelineResult
-from naseview.reconstruction import Reconstruction, read_reconstruction
+from naseview.reconstruction import (
+    Reconstruction,
+    index_array,
+    numbers_dict,
+    points_array,
+    read_output_set,
+)
 from naseview.stage2_curves import DEFAULT_SUB_LANDMARKS
 
 Landmarks = dict[str, np.ndarray]
@@ -102,26 +109,37 @@ class Baseline:
         Raises:
             NaseviewError: a key is missing, an array is malformed or inconsistent.
         """
-        try:
-            mesh = obj["mesh"]
-            V = np.asarray(mesh["vertices"], dtype=np.float64).reshape(-1, 3)
-            F = np.asarray(mesh["faces"], dtype=np.int64).reshape(-1, 3)
-            nose = np.asarray(mesh["nose_vertex_ids"], dtype=np.int64).ravel()
-            rec = Reconstruction.from_json(obj["reconstruction"], f"{where}: baseline")
-            b = Baseline(
-                V=V, F=F, nose_ids=nose, landmarks=copy_landmarks(obj["landmarks"]),
-                curves={k: np.asarray(c, dtype=np.float64).reshape(-1, 3)
-                        for k, c in obj.get("curves", {}).items()},
-                ad_landmarks=np.asarray(obj.get("ad_landmarks", []),
-                                        dtype=np.float64).reshape(-1, 3),
-                measurements={k: float(v) for k, v in obj.get("measurements", {}).items()},
-                reconstruction=rec)
-        except KeyError as e:
-            raise NaseviewError(f"{where}: key 'baseline.{e.args[0]}' missing; the session "
-                                "file is incomplete, save it again from the app") from None
-        except (TypeError, ValueError):
-            raise NaseviewError(f"{where}: key 'baseline': malformed arrays; save the "
-                                "session again from the app") from None
+        for key in ("mesh", "landmarks", "reconstruction"):
+            if key not in obj:
+                raise NaseviewError(f"{where}: key 'baseline.{key}' missing; the session "
+                                    "file is incomplete, save it again from the app")
+        mesh = obj["mesh"]
+        if not isinstance(mesh, Mapping) or not {"vertices", "faces",
+                                                 "nose_vertex_ids"} <= set(mesh):
+            raise NaseviewError(f"{where}: key 'baseline.mesh': expected vertices, faces and "
+                                "nose_vertex_ids; save the session again from the app")
+        V = points_array(mesh["vertices"], where, "baseline.mesh.vertices")
+        F = index_array(mesh["faces"], where, "baseline.mesh.faces", len(V), width=3)
+        nose = index_array(mesh["nose_vertex_ids"], where, "baseline.mesh.nose_vertex_ids",
+                           len(V))
+        rec = Reconstruction.from_json(obj["reconstruction"], f"{where}: baseline")
+        lms = obj["landmarks"]
+        if not isinstance(lms, Mapping):
+            raise NaseviewError(f"{where}: key 'baseline.landmarks': expected an object")
+        curves = obj.get("curves", {})
+        if not isinstance(curves, Mapping):
+            raise NaseviewError(f"{where}: key 'baseline.curves': expected an object")
+        b = Baseline(
+            V=V, F=F, nose_ids=nose,
+            landmarks={k: points_array([v], where, f"baseline.landmarks.{k}", 1)[0]
+                       for k, v in lms.items()},
+            curves={k: points_array(c, where, f"baseline.curves.{k}")
+                    for k, c in curves.items()},
+            ad_landmarks=points_array(obj.get("ad_landmarks", []), where,
+                                      "baseline.ad_landmarks"),
+            measurements=numbers_dict(obj.get("measurements", {}), where,
+                                      "baseline.measurements"),
+            reconstruction=rec)
         b.validate(where)
         return b
 
@@ -270,19 +288,27 @@ def baseline_from_face_model(model: FaceModel, coeffs: ArrayLike | None = None) 
                     np.array(ad), clinical_measurements(lms, curves, V, F))
 
 
-def baseline_from_output_dir(out_dir: Path) -> Baseline:
+def baseline_from_output_dir(out_dir: str | os.PathLike[str]) -> Baseline:
     """A :class:`Baseline` from ``naseview reconstruct`` output (SPEC §5).
 
+    ``reconstruction.json``, ``face.ply`` and ``nose.ply`` are read as one set
+    (:func:`naseview.reconstruction.read_output_set`): a folder mixing two runs is refused,
+    and a run being written right now gives the previous or the new result.
+
     Raises:
-        NaseviewError: a file is missing or the nose mesh does not match the face mesh.
+        NaseviewError: a file is missing, the files do not belong together, or the nose
+            mesh does not match the face mesh.
     """
-    rec = read_reconstruction(out_dir / "reconstruction.json")
-    for name in ("face.ply", "nose.ply"):
-        if not (out_dir / name).is_file():
+    out_dir = Path(out_dir)
+    meshes = ("face.ply", "nose.ply")
+    got = read_output_set(out_dir, meshes)
+    rec = got.reconstruction
+    for name in meshes:
+        if name not in got.files:
             raise NaseviewError(f"{out_dir / name}: file not found; re-run `naseview "
                                 f"reconstruct CASE -o {out_dir}` (stage 3 writes it)")
-    V, F = read_mesh(out_dir / "face.ply")
-    Vn, _ = read_mesh(out_dir / "nose.ply")
+    V, F = mesh_from_bytes(got.files["face.ply"], "ply", out_dir / "face.ply")
+    Vn, _ = mesh_from_bytes(got.files["nose.ply"], "ply", out_dir / "nose.ply")
     d, ids = cKDTree(V).query(Vn)
     if len(d) and float(d.max()) > 1e-4:
         raise NaseviewError(f"{out_dir / 'nose.ply'}: its vertices are not vertices of "

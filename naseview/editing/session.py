@@ -7,6 +7,12 @@ saved (only the vertices that differ from the baseline are stored) and free-form
 (source path, parameters). Floats are written with full precision, so a reopened editor
 shows the same bits. Files are written atomically (:func:`naseview.fileio.atomic_write_json`).
 
+A session file is validated like ``case.json`` when it is opened: every array has its
+shape, every number is finite, every vertex id lies in the mesh and every landmark is one
+of the baseline's. The case folder it names (``app.case_dir``, where the photos are) is
+stored relative to the session file and must lie in the session file's folder
+(:meth:`Session.case_folder`); a session saved beside ``case.json`` finds it there.
+
 The format is documented in ``docs/formats.md``; :data:`SESSION_FORMAT` is its ``format``
 string.
 
@@ -27,9 +33,10 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from naseview.editing.baseline import Baseline, Landmarks, copy_landmarks
+from naseview.editing.baseline import Baseline, Landmarks
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_json, read_json
+from naseview.fileio import atomic_write_json, read_json, resolve_stored_path, stored_path
+from naseview.reconstruction import CASE_DIR_KEY, index_array, numbers_dict, points_array
 
 SESSION_FORMAT = "naseview.session/1"
 
@@ -75,6 +82,25 @@ class Session:
     app: dict[str, Any]
     path: Path | None = None
 
+    def case_folder(self) -> Path | None:
+        """The case folder holding the photos: ``app.case_dir`` resolved against the
+        session file's folder, else that folder itself when it holds ``case.json``, else
+        None (no photos).
+
+        Raises:
+            NaseviewError: ``app.case_dir`` points outside the session file's folder
+                (absolute elsewhere, ``..`` or a symlink leaving it), naming the file and
+                the key.
+        """
+        if self.path is None:
+            return None
+        folder = Path(os.path.realpath(self.path)).parent
+        value = self.app.get(CASE_DIR_KEY)
+        if value is None:
+            return folder if (folder / "case.json").is_file() else None
+        return resolve_stored_path(value, folder, folder, self.path, f"app.{CASE_DIR_KEY}",
+                                   allow_absolute=True)
+
 
 class SessionSource(Protocol):
     """What :func:`save_session` saves: an editor that can snapshot itself
@@ -95,13 +121,35 @@ def _simulation_json(sim: SavedSimulation, base: Baseline) -> dict[str, Any]:
     }
 
 
-def session_to_json(session: Session) -> dict[str, Any]:
-    """The ``naseview.session/1`` JSON object of ``session`` (``path`` is not stored)."""
+def _app_json(app: Mapping[str, Any], folder: Path | None) -> dict[str, Any]:
+    """The ``app`` object to store: ``case_dir`` relative to the session's ``folder``
+    (None when there is no folder or the case does not lie in it: an absolute path is
+    never written)."""
+    out = dict(app)
+    case_dir = out.get(CASE_DIR_KEY)
+    if case_dir is not None:
+        out[CASE_DIR_KEY] = (stored_path(case_dir, folder, folder) if folder is not None
+                             and isinstance(case_dir, (str, os.PathLike)) else None)
+    return out
+
+
+def session_to_json(session: Session, folder: str | os.PathLike[str] | None = None
+                    ) -> dict[str, Any]:
+    """The ``naseview.session/1`` JSON object of ``session`` (``path`` is not stored).
+
+    Args:
+        session: what to store.
+        folder: the folder the file will be written to: ``app.case_dir`` is stored
+            relative to it if the case lies inside it, else (and without a folder, e.g. a
+            download) left out. No absolute path is ever written.
+    """
     base = session.baseline
+    baseline = base.to_json()
+    baseline["reconstruction"].pop(CASE_DIR_KEY, None)  # relative to another folder
     return {
         "format": SESSION_FORMAT,
         "units": "mm",
-        "baseline": base.to_json(),
+        "baseline": baseline,
         "edit": {
             "landmarks": {k: v.tolist() for k, v in session.landmarks.items()},
             "history": [{k: v.tolist() for k, v in h.items()} for h in session.history],
@@ -110,7 +158,7 @@ def session_to_json(session: Session) -> dict[str, Any]:
             "simulation": (None if session.simulation is None
                            else _simulation_json(session.simulation, base)),
         },
-        "app": dict(session.app),
+        "app": _app_json(session.app, None if folder is None else Path(folder)),
     }
 
 
@@ -121,7 +169,8 @@ def save_session(path: str | os.PathLike[str], controller: SessionSource,
     Floats are written with full precision, so :func:`load_session` restores the same
     bits.
     """
-    return atomic_write_json(path, session_to_json(controller.snapshot(app)))
+    path = Path(path)
+    return atomic_write_json(path, session_to_json(controller.snapshot(app), path.parent))
 
 
 def is_session_file(path: str | os.PathLike[str]) -> bool:
@@ -148,17 +197,40 @@ def load_session(path: str | os.PathLike[str]) -> Session:
     return session_from_json(obj, str(path), path)
 
 
-def _saved_simulation(s: Mapping[str, Any], baseline: Baseline) -> SavedSimulation:
-    """Parse ``edit.simulation``: the baseline mesh with the stored changed vertices."""
+def _object(value: object, where: str, key: str) -> Mapping[str, Any]:
+    """``value``, which must be a JSON object."""
+    if not isinstance(value, Mapping):
+        raise NaseviewError(f"{where}: key {key!r}: expected an object; save the session "
+                            "again from the app")
+    return value
+
+
+def _landmarks(value: object, baseline: Baseline, where: str, key: str) -> Landmarks:
+    """id -> finite (3,) positions, every id a landmark of the baseline."""
+    out: Landmarks = {}
+    for lid, p in _object(value, where, key).items():
+        if lid not in baseline.landmarks:
+            raise NaseviewError(f"{where}: key '{key}.{lid}': not a landmark of the "
+                                "baseline")
+        out[lid] = points_array([p], where, f"{key}.{lid}", 1)[0]
+    return out
+
+
+def _saved_simulation(value: object, baseline: Baseline, where: str) -> SavedSimulation:
+    """Parse ``edit.simulation``: the baseline mesh with the stored changed vertices (ids
+    in the mesh, finite coordinates), curves, ad-landmarks and measurements."""
+    key = "edit.simulation"
+    s = _object(value, where, key)
     V = baseline.V.copy()
-    ids = np.asarray(s.get("changed_vertex_ids", []), dtype=np.int64)
-    if ids.size:
-        V[ids] = np.asarray(s["changed_vertices"], dtype=np.float64).reshape(-1, 3)
+    ids = index_array(s.get("changed_vertex_ids", []), where, f"{key}.changed_vertex_ids",
+                      len(V))
+    V[ids] = points_array(s.get("changed_vertices", []), where, f"{key}.changed_vertices",
+                          len(ids))
+    curves = {k: points_array(c, where, f"{key}.curves.{k}")
+              for k, c in _object(s.get("curves", {}), where, f"{key}.curves").items()}
     return SavedSimulation(
-        V, {k: np.asarray(c, dtype=np.float64).reshape(-1, 3)
-            for k, c in s.get("curves", {}).items()},
-        np.asarray(s.get("ad_landmarks", []), dtype=np.float64).reshape(-1, 3),
-        {k: float(v) for k, v in s.get("measurements", {}).items()})
+        V, curves, points_array(s.get("ad_landmarks", []), where, f"{key}.ad_landmarks"),
+        numbers_dict(s.get("measurements", {}), where, f"{key}.measurements"))
 
 
 def _check_header(obj: Mapping[str, Any], where: str) -> None:
@@ -180,21 +252,30 @@ def session_from_json(obj: Mapping[str, Any], where: str = "session",
             is not a landmark of the baseline.
     """
     _check_header(obj, where)
-    baseline = Baseline.from_json(obj["baseline"], where)
-    edit = obj["edit"]
-    try:
-        lms = copy_landmarks(edit.get("landmarks", baseline.landmarks))
-        history = [copy_landmarks(h) for h in edit.get("history", [])]
-        index = int(edit.get("history_index", len(history) - 1))
-        symmetric = bool(edit.get("symmetric", False))
-        s = edit.get("simulation")
-        saved = None if s is None else _saved_simulation(s, baseline)
-    except (TypeError, ValueError, KeyError, IndexError, AttributeError):
-        raise NaseviewError(f"{where}: key 'edit': malformed landmark or mesh arrays; save "
-                            "the session again from the app") from None
-    unknown = [k for k in lms if k not in baseline.landmarks]
-    if unknown:
-        raise NaseviewError(f"{where}: key 'edit.landmarks.{unknown[0]}': not a landmark "
-                            "of the baseline")
-    return Session(baseline, lms, history, index, symmetric, saved,
-                   dict(obj.get("app", {})), path)
+    baseline = Baseline.from_json(_object(obj["baseline"], where, "baseline"), where)
+    edit = _object(obj["edit"], where, "edit")
+    lms = _landmarks(edit.get("landmarks", {k: v.tolist() for k, v in
+                                            baseline.landmarks.items()}),
+                     baseline, where, "edit.landmarks")
+    hist = edit.get("history", [])
+    if not isinstance(hist, list):
+        raise NaseviewError(f"{where}: key 'edit.history': expected a list of landmark "
+                            "objects")
+    history = [_landmarks(h, baseline, where, f"edit.history.{i}")
+               for i, h in enumerate(hist)]
+    index = edit.get("history_index", max(len(history) - 1, 0))
+    last = max(len(history) - 1, 0)
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index <= last:
+        raise NaseviewError(f"{where}: key 'edit.history_index': {index!r} is outside "
+                            f"[0, {last}]; expected an entry of edit.history")
+    symmetric = edit.get("symmetric", False)
+    if not isinstance(symmetric, bool):
+        raise NaseviewError(f"{where}: key 'edit.symmetric': expected true or false")
+    s = edit.get("simulation")
+    saved = None if s is None else _saved_simulation(s, baseline, where)
+    app = dict(_object(obj.get("app", {}), where, "app"))
+    case_dir = app.get(CASE_DIR_KEY)
+    if case_dir is not None and not isinstance(case_dir, str):
+        raise NaseviewError(f"{where}: key 'app.{CASE_DIR_KEY}': expected a path relative "
+                            "to the session file, or null")
+    return Session(baseline, lms, history, index, symmetric, saved, app, path)

@@ -5,5 +5,9 @@ directory (SPEC §3) for the pipeline; no viser here.
 - :mod:`~naseview.intake.click_order`: which photo first and which landmark next;
 - :mod:`~naseview.intake.guidance`: hints from a quick stage 1 (paper §3.2);
 - :mod:`~naseview.intake.session`: :class:`AnnotationSession`, autosaved as
-  ``annotation.json`` (``naseview.annotation/1``).
+  ``annotation.json``; a photo replacement is all or nothing with its clicks;
+- :mod:`~naseview.intake.annotation_file`: the ``naseview.annotation/1`` file, validated
+  on resume (one line naming the file and the key);
+- :mod:`~naseview.intake.patients`: the work folder, one id per patient, a fresh folder
+  for each new patient.
 """

@@ -1,7 +1,9 @@
 """Photo intake of a new patient: uploaded bytes -> stored photo without metadata.
 
 :func:`decode_photo` turns JPEG/PNG bytes into (H, W, 3) uint8 BGR with the EXIF
-orientation applied (OpenCV ``IMREAD_COLOR`` does that), longest side capped at
+orientation applied (OpenCV ``IMREAD_COLOR`` does that) through
+:func:`naseview.fileio.decode_image`, which refuses a declared size over its pixel limit
+before decoding (a decompression bomb), the longest side capped at
 :data:`MAX_SIDE_PX` (clicks are in the pixels of the *stored* photo, SPEC §2), and
 :func:`encode_photo` re-encodes the pixels only, so no EXIF, GPS, maker notes, text chunks
 or ICC profile reach the disk. Anything else gets one line saying what to do.
@@ -26,6 +28,7 @@ import cv2
 import numpy as np
 
 from naseview.errors import NaseviewError
+from naseview.fileio import decode_image
 
 MAX_SIDE_PX = 2048
 """Photos whose longest side exceeds this are downscaled to it at intake (px)."""
@@ -34,7 +37,7 @@ MIN_SIDE_PX = 64
 """Smaller photos are refused: no landmark can be placed on them reliably."""
 
 MAX_UPLOAD_BYTES = 60 * 1024 * 1024
-"""Larger uploads are refused before decoding."""
+"""Larger uploads are refused: by the page while they stream in, before any decoding."""
 
 JPEG_QUALITY = 95
 """Quality of re-encoded JPEG photos (PNG uploads stay PNG, lossless)."""
@@ -72,6 +75,16 @@ class PhotoInfo:
                          int(obj.get("original_height", obj["height"])))
 
 
+def upload_too_large(name: str, nbytes: int) -> str:
+    """The one-line message for an upload over :data:`MAX_UPLOAD_BYTES`.
+
+    >>> upload_too_large("front.jpg", 80 * 2**20)
+    'front.jpg: 80.0 MB is too large (limit 60 MB); export the photo as JPEG'
+    """
+    return (f"{name}: {nbytes / 2**20:.1f} MB is too large (limit "
+            f"{MAX_UPLOAD_BYTES // 2**20} MB); export the photo as JPEG")
+
+
 def photo_kind(data: bytes) -> str | None:
     """``"jpeg"``, ``"png"``, ``"heic"``, ``"webp"``, ``"tiff"``... from the magic bytes,
     ``None`` if unknown."""
@@ -106,14 +119,14 @@ def decode_photo(data: bytes, name: str = "photo", max_side: int = MAX_SIDE_PX
     Returns:
         (H, W, 3) uint8 BGR and the (width, height) before downscaling.
     Raises:
-        NaseviewError: empty, too large, not a JPEG/PNG (HEIC gets its own hint), or
-            unreadable.
+        NaseviewError: empty, too large, not a JPEG/PNG (HEIC gets its own hint), over
+            :data:`naseview.fileio.MAX_IMAGE_PIXELS` (read from the header, before
+            decoding: a decompression bomb costs nothing), or unreadable.
     """
     if not data:
         raise NaseviewError(f"{name}: the file is empty; choose the JPEG or PNG photo again")
     if len(data) > MAX_UPLOAD_BYTES:
-        raise NaseviewError(f"{name}: {len(data) / 2**20:.0f} MB is too large (limit "
-                            f"{MAX_UPLOAD_BYTES // 2**20} MB); export the photo as JPEG")
+        raise NaseviewError(upload_too_large(name, len(data)))
     kind = photo_kind(data)
     if kind == "heic":
         raise NaseviewError(f"{name}: HEIC/HEIF photos cannot be read; export it as JPEG "
@@ -121,10 +134,7 @@ def decode_photo(data: bytes, name: str = "photo", max_side: int = MAX_SIDE_PX
     if kind not in ("jpeg", "png"):
         raise NaseviewError(f"{name}: not a JPEG or PNG image; choose the photo file "
                             "(.jpg or .png)")
-    img = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
-    if img is None or img.ndim != 3:
-        raise NaseviewError(f"{name}: the {kind.upper()} file is damaged or truncated; "
-                            "copy the photo again from the camera")
+    img = decode_image(data, name)   # the declared size is checked before decoding
     h, w = img.shape[:2]
     if min(h, w) < MIN_SIDE_PX:
         raise NaseviewError(f"{name}: {w}x{h} px is too small; use the original photo "

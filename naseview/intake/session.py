@@ -10,13 +10,16 @@ here):
   :data:`naseview.landmarks.VIEW_LANDMARKS` in the order they lie along the paper's
   boundary curves;
 - **Editing**: place / move / skip / undo; one undo entry per action (a drag is one move);
-- **Autosave**: after every change ``annotation.json`` (format ``naseview.annotation/1``)
-  is rewritten atomically in the in-progress folder (photos are written once, at intake);
-  :meth:`AnnotationSession.open` resumes it after a reload or a server restart, undo
-  history included;
+- **Autosave**: after every change ``annotation.json`` (format ``naseview.annotation/1``,
+  :mod:`naseview.intake.annotation_file`) is rewritten atomically in the in-progress
+  folder; a change whose save fails is undone in memory too. Photos are written once, at
+  intake; replacing one is all or nothing with its clicks
+  (:meth:`AnnotationSession.add_photo`). :meth:`AnnotationSession.open` validates the
+  file and resumes it after a reload or a server restart, undo history included;
 - **Guidance** (:mod:`naseview.intake.guidance`): hints from a quick stage 1 (paper §3.2);
 - **Output**: :meth:`AnnotationSession.write_case` writes the SPEC §3 case directory with
-  :func:`naseview.case.write_case`, ready for ``naseview reconstruct``.
+  :func:`naseview.case.write_case`, ready for ``naseview reconstruct``: all or nothing,
+  and never over a case another session wrote.
 
 Example
 -------
@@ -29,11 +32,16 @@ Example
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
+import logging
 import math
 import os
 import re
+import shutil
+import tempfile
 import threading
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,23 +52,28 @@ from numpy.typing import ArrayLike
 from naseview.case import Case, View, parse_scale_key
 from naseview.case import write_case as _write_case
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_bytes, atomic_write_json, read_image, read_json
+from naseview.fileio import atomic_write_bytes, atomic_write_json, one_line, read_image, read_json
+from naseview.intake.annotation_file import (
+    ANNOTATION_FILE,
+    ANNOTATION_FORMAT,
+    AnnotationState,
+    UndoEntry,
+    annotation_json,
+    is_photo_name,
+    new_uid,
+    parse_annotation,
+    safe_case_id,
+)
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
 from naseview.intake.guidance import HINT_MIN_CLICKS, Guidance, quick_stage1
 from naseview.intake.photos import PhotoInfo, decode_photo, encode_photo, photo_kind
-from naseview.landmarks import ALL_IDS, LANDMARK_IDS, VIEW_LANDMARKS, VIEWS
+from naseview.landmarks import LANDMARK_IDS, VIEW_LANDMARKS, VIEWS
 
-ANNOTATION_FORMAT = "naseview.annotation/1"
-ANNOTATION_FILE = "annotation.json"
+log = logging.getLogger(__name__)
 
 
 def _now() -> str:
     return _dt.datetime.now().astimezone().isoformat(timespec="seconds")
-
-
-def _safe_id(text: str) -> str:
-    s = re.sub(r"[^A-Za-z0-9._-]+", "-", text.strip()).strip("-.")
-    return s[:64]
 
 
 def default_work_dir() -> Path:
@@ -75,29 +88,39 @@ def default_case_id() -> str:
     return _dt.datetime.now().strftime("patient-%Y%m%d-%H%M%S")
 
 
-@dataclass
-class _Undo:
-    view: str
-    landmark: str
-    before: list[float] | None     # position before the action (None: not placed)
-    skipped_before: bool
-    action: str                    # "place", "move", "skip"
+def _is_leftover(name: str) -> bool:
+    """A temporary file of an interrupted write in an in-progress folder: the atomic
+    writes of :mod:`naseview.fileio` use ``.<target>.<random>.tmp``."""
+    if not (name.startswith(".") and name.endswith(".tmp")):
+        return False
+    target = name[1:].rsplit(".", 2)[0]
+    return target == ANNOTATION_FILE or is_photo_name(target)
 
-    def to_json(self) -> dict[str, Any]:
-        return {"view": self.view, "landmark": self.landmark, "before": self.before,
-                "skipped_before": self.skipped_before, "action": self.action}
+
+def _unlink(path: Path) -> None:
+    """Remove a file the session no longer needs; a failure only leaves an orphan that
+    the next :meth:`AnnotationSession.open` removes."""
+    try:
+        path.unlink()
+    except FileNotFoundError:
+        pass
+    except OSError as e:
+        log.warning("naseview: could not remove %s: %s", path, one_line(e))
 
 
 class AnnotationSession:
     """The unfinished annotation of one new patient, autosaved in ``folder``.
 
     Use :meth:`create` for a new patient and :meth:`open` to resume one. Every method that
-    changes something rewrites ``folder/annotation.json`` atomically before it returns.
+    changes something rewrites ``folder/annotation.json`` atomically before it returns;
+    if that write fails, the session is left exactly as it was (in memory and on disk).
     Thread-safe (one lock).
 
     Attributes:
         folder: the in-progress folder (photos + ``annotation.json``).
         case_id: anonymised id (file-name safe).
+        uid: random token of this session; the case directory it writes carries it, so
+            that it rewrites its own case and never another patient's.
         photos: view -> :class:`PhotoInfo`.
         clicks: view -> id -> (2,) px in the stored photo.
         skipped: view -> ids marked "not visible".
@@ -111,22 +134,55 @@ class AnnotationSession:
 
     def __init__(self, folder: str | os.PathLike[str], case_id: str = "") -> None:
         self.folder = Path(folder)
-        self.case_id = _safe_id(case_id) or _safe_id(self.folder.name) or default_case_id()
-        self.photos: dict[str, PhotoInfo] = {}
-        self.clicks: dict[str, dict[str, np.ndarray]] = {v: {} for v in VIEWS}
-        self.skipped: dict[str, set[str]] = {v: set() for v in VIEWS}
-        self.scale_mm: dict[tuple[str, str], float] = {}
-        self.notes = ""
-        self.active_view = VIEW_ORDER[0]
-        self.case_dir: Path | None = None
-        self.created = _now()
-        self.updated = self.created
-        self.revision = 0
-        self.stats: dict[str, Any] = {"places": 0, "moves": 0, "skips": 0, "undos": 0,
-                                      "first_click": None, "last_click": None}
-        self._undo: list[_Undo] = []
         self._lock = threading.RLock()
         self._images: dict[str, np.ndarray] = {}
+        now = _now()
+        self._load(AnnotationState(
+            case_id=safe_case_id(case_id) or safe_case_id(self.folder.name)
+            or default_case_id(), uid=new_uid(), created=now, updated=now))
+
+    # state
+    def _load(self, st: AnnotationState) -> None:
+        self.case_id = st.case_id
+        self.uid = st.uid
+        self.created, self.updated, self.revision = st.created, st.updated, st.revision
+        self.photos: dict[str, PhotoInfo] = dict(st.photos)
+        self.clicks: dict[str, dict[str, np.ndarray]] = {
+            v: dict(st.clicks.get(v, {})) for v in VIEWS}
+        self.skipped: dict[str, set[str]] = {v: set(st.skipped.get(v, ())) for v in VIEWS}
+        self.scale_mm: dict[tuple[str, str], float] = dict(st.scale_mm)
+        self.notes = st.notes
+        self.active_view = st.active_view
+        self.case_dir: Path | None = st.case_dir
+        self.stats: dict[str, Any] = dict(st.stats)
+        self._undo: list[UndoEntry] = list(st.undo)
+
+    def _state(self) -> AnnotationState:
+        """A snapshot of the session (inner containers copied)."""
+        return AnnotationState(
+            case_id=self.case_id, uid=self.uid, created=self.created, updated=self.updated,
+            revision=self.revision, photos=dict(self.photos),
+            clicks={v: dict(c) for v, c in self.clicks.items()},
+            skipped={v: set(s) for v, s in self.skipped.items()},
+            scale_mm=dict(self.scale_mm), notes=self.notes, active_view=self.active_view,
+            case_dir=self.case_dir, stats=dict(self.stats), undo=list(self._undo))
+
+    @contextlib.contextmanager
+    def _edit(self, bump: bool = True) -> Iterator[None]:
+        """Change the session inside the block, then save: all or nothing. If the block
+        or the save raises (disk full, a kill signal...), the session returns to its
+        state before the block and ``annotation.json`` still holds that state."""
+        with self._lock:
+            before = self._state()
+            try:
+                yield
+                if bump:
+                    self.revision += 1
+                    self.updated = _now()
+                self.save()
+            except BaseException:
+                self._load(before)
+                raise
 
     # lifecycle
     @classmethod
@@ -142,100 +198,64 @@ class AnnotationSession:
 
     @classmethod
     def open(cls, folder: str | os.PathLike[str]) -> AnnotationSession:
-        """Resume the annotation autosaved in ``folder``.
+        """Resume the annotation autosaved in ``folder``; leftovers of an interrupted
+        write (temporary files, a photo no longer referenced) are removed.
 
         Raises:
-            NaseviewError: no or malformed ``annotation.json``, or a photo missing.
+            NaseviewError: no ``annotation.json``, or one that is malformed or hand-edited
+                out of range (:func:`~naseview.intake.annotation_file.parse_annotation`:
+                one line naming the file and the key).
         """
         folder = Path(folder)
         path = folder / ANNOTATION_FILE
-        obj = read_json(path)
-        if obj.get("format") != ANNOTATION_FORMAT:
-            raise NaseviewError(f"{path}: key 'format': expected {ANNOTATION_FORMAT!r}, "
-                                f"found {obj.get('format')!r}")
-        s = cls(folder, str(obj.get("id", "")))
-        try:
-            s._restore_photos(obj.get("photos", {}))
-            s._restore_marks(obj)
-            s._restore_state(obj)
-        except (KeyError, TypeError, ValueError) as e:
-            raise NaseviewError(f"{path}: malformed annotation ({type(e).__name__}: {e}); "
-                                "start the patient again") from None
+        state = parse_annotation(read_json(path), path, folder)
+        s = cls(folder, state.case_id)
+        s._load(state)
+        s._remove_leftovers()
         return s
 
-    def _restore_photos(self, photos: dict[str, Any]) -> None:
-        """``photos`` of ``annotation.json``; every photo file must still be there."""
-        for v, p in photos.items():
-            if v not in VIEWS:
-                continue
-            info = PhotoInfo.from_json(p)
-            if not (self.folder / info.file).is_file():
-                raise NaseviewError(f"{self.folder / info.file}: photo of view {v!r} is "
-                                    "missing; upload that photo again")
-            self.photos[v] = info
-
-    def _restore_marks(self, obj: dict[str, Any]) -> None:
-        """``clicks``, ``skipped`` and ``scale_mm`` (unknown views and ids are dropped)."""
-        for v, c in obj.get("clicks", {}).items():
-            if v in VIEWS:
-                self.clicks[v] = {i: np.array(xy, dtype=np.float64).reshape(2)
-                                  for i, xy in c.items() if i in ALL_IDS}
-        for v, ids in obj.get("skipped", {}).items():
-            if v in VIEWS:
-                self.skipped[v] = {i for i in ids if i in ALL_IDS}
-        for key, d in obj.get("scale_mm", {}).items():
-            pair = parse_scale_key(key)
-            if pair is not None:
-                self.scale_mm[pair] = float(d)
-
-    def _restore_state(self, obj: dict[str, Any]) -> None:
-        """Notes, active view, case folder, times, revision, counters and undo history."""
-        self.notes = str(obj.get("notes", ""))
-        av = obj.get("active_view")
-        self.active_view = av if av in VIEWS else VIEW_ORDER[0]
-        self.case_dir = Path(obj["case_dir"]) if obj.get("case_dir") else None
-        self.created = str(obj.get("created", self.created))
-        self.updated = str(obj.get("updated", self.updated))
-        self.revision = int(obj.get("revision", 0))
-        self.stats.update(obj.get("stats", {}))
-        self._undo = [_Undo(u["view"], u["landmark"], u["before"], bool(u["skipped_before"]),
-                            u["action"]) for u in obj.get("undo", [])]
+    def _remove_leftovers(self) -> None:
+        """Temporary files of interrupted writes and photos no view refers to (a photo
+        replacement interrupted before or after its commit)."""
+        keep = {p.file for p in self.photos.values()}
+        try:
+            names = [p.name for p in self.folder.iterdir() if p.is_file()]
+        except OSError:
+            return
+        for name in names:
+            if _is_leftover(name) or (is_photo_name(name) and name not in keep):
+                _unlink(self.folder / name)
 
     def to_json(self) -> dict[str, Any]:
-        return {
-            "format": ANNOTATION_FORMAT,
-            "id": self.case_id,
-            "created": self.created,
-            "updated": self.updated,
-            "revision": self.revision,
-            "photos": {v: p.to_json() for v, p in self.photos.items()},
-            "clicks": {v: {i: [float(x) for x in xy] for i, xy in c.items()}
-                       for v, c in self.clicks.items() if c},
-            "skipped": {v: sorted(s) for v, s in self.skipped.items() if s},
-            "scale_mm": {f"{a}-{b}": float(d) for (a, b), d in self.scale_mm.items()},
-            "notes": self.notes,
-            "active_view": self.active_view,
-            "case_dir": str(self.case_dir) if self.case_dir else None,
-            "stats": self.stats,
-            "undo": [u.to_json() for u in self._undo[-500:]],
-        }
+        """The ``annotation.json`` object (``case_dir`` relative to :attr:`folder`)."""
+        return annotation_json(self._state(), self.folder)
 
     def save(self) -> Path:
         """Write ``annotation.json`` atomically (called after every change)."""
         with self._lock:
             return atomic_write_json(self.folder / ANNOTATION_FILE, self.to_json())
 
-    def _changed(self) -> None:
-        self.revision += 1
-        self.updated = _now()
-        self.save()
-
     # photos
+    def _new_photo_name(self, view: str, ext: str) -> str:
+        """A file name for a new photo of ``view`` that no view refers to and no file
+        has: the photo it replaces stays intact until the new one is committed."""
+        used = {p.file for p in self.photos.values()}
+        for k in range(1, 10_000):
+            name = f"{view}{ext}" if k == 1 else f"{view}-{k}{ext}"
+            if name not in used and not (self.folder / name).exists():
+                return name
+        raise NaseviewError(f"{self.folder}: too many photo files of the {view} view; "
+                            "remove the old ones")
+
     def add_photo(self, view: str, data: bytes, name: str = "") -> PhotoInfo:
         """Take an uploaded photo for ``view`` (see :func:`decode_photo`).
 
         The pixels are re-encoded (JPEG stays JPEG at quality 95, PNG stays PNG) without
-        any metadata. Replacing a photo removes that view's clicks and skips.
+        any metadata. Replacing a photo removes that view's clicks and skips, all or
+        nothing: the new photo goes to a new file, ``annotation.json`` then switches to
+        it with no clicks for the view (the commit), and only then is the old photo
+        removed. A crash at any step leaves the old photo with its clicks or the new one
+        without; :meth:`open` removes the file the crash left behind.
 
         Raises:
             NaseviewError: unknown view or unusable file (nothing is changed then).
@@ -244,22 +264,24 @@ class AnnotationSession:
         label = f"photo for the {view} view" + (f" ({name})" if name else "")
         img, (w0, h0) = decode_photo(data, label)
         kind = "png" if photo_kind(data) == "png" else "jpeg"
-        ext = ".png" if kind == "png" else ".jpg"
-        file = f"{view}{ext}"
+        encoded = encode_photo(img, kind)
         with self._lock:
-            atomic_write_bytes(self.folder / file, encode_photo(img, kind))
+            file = self._new_photo_name(view, ".png" if kind == "png" else ".jpg")
             old = self.photos.get(view)
-            if old is not None and old.file != file:
-                try:
-                    (self.folder / old.file).unlink()
-                except FileNotFoundError:
-                    pass
-            self.photos[view] = PhotoInfo(file, int(img.shape[1]), int(img.shape[0]), w0, h0)
+            try:
+                atomic_write_bytes(self.folder / file, encoded)
+                with self._edit():
+                    self.photos[view] = PhotoInfo(file, int(img.shape[1]),
+                                                  int(img.shape[0]), w0, h0)
+                    self.clicks[view] = {}
+                    self.skipped[view] = set()
+                    self._undo = [u for u in self._undo if u.view != view]
+            except BaseException:
+                _unlink(self.folder / file)
+                raise
             self._images[view] = img
-            self.clicks[view] = {}
-            self.skipped[view] = set()
-            self._undo = [u for u in self._undo if u.view != view]
-            self._changed()
+            if old is not None:
+                _unlink(self.folder / old.file)
             return self.photos[view]
 
     def image(self, view: str) -> np.ndarray:
@@ -300,9 +322,9 @@ class AnnotationSession:
 
     def _record(self, view: str, landmark: str, action: str) -> None:
         before = self.clicks[view].get(landmark)
-        self._undo.append(_Undo(view, landmark, None if before is None else
-                                [float(before[0]), float(before[1])],
-                                landmark in self.skipped[view], action))
+        self._undo.append(UndoEntry(view, landmark, None if before is None else
+                                    [float(before[0]), float(before[1])],
+                                    landmark in self.skipped[view], action))
 
     def _stamp(self) -> None:
         t = _now()
@@ -317,14 +339,13 @@ class AnnotationSession:
             NaseviewError: no photo, landmark not asked in this view, or outside the photo.
         """
         p = self._check_click(view, landmark, xy)
-        with self._lock:
+        with self._edit():
             moving = landmark in self.clicks[view]
             self._record(view, landmark, "move" if moving else "place")
             self.clicks[view][landmark] = p
             self.skipped[view].discard(landmark)
             self.stats["moves" if moving else "places"] += 1
             self._stamp()
-            self._changed()
 
     def move(self, view: str, landmark: str, xy: ArrayLike) -> None:
         """Move an existing click (e.g. at the end of a drag); one undo entry.
@@ -345,11 +366,11 @@ class AnnotationSession:
         with self._lock:
             if landmark in self.skipped[view] and landmark not in self.clicks[view]:
                 return
-            self._record(view, landmark, "skip")
-            self.clicks[view].pop(landmark, None)
-            self.skipped[view].add(landmark)
-            self.stats["skips"] += 1
-            self._changed()
+            with self._edit():
+                self._record(view, landmark, "skip")
+                self.clicks[view].pop(landmark, None)
+                self.skipped[view].add(landmark)
+                self.stats["skips"] += 1
 
     def remove(self, view: str, landmark: str) -> None:
         """Delete a click (it becomes "to do" again); undoable."""
@@ -357,27 +378,27 @@ class AnnotationSession:
             if landmark not in self.clicks.get(view, {}) and \
                     landmark not in self.skipped.get(view, set()):
                 return
-            self._record(view, landmark, "remove")
-            self.clicks[view].pop(landmark, None)
-            self.skipped[view].discard(landmark)
-            self._changed()
+            with self._edit():
+                self._record(view, landmark, "remove")
+                self.clicks[view].pop(landmark, None)
+                self.skipped[view].discard(landmark)
 
     def undo(self) -> tuple[str, str] | None:
         """Undo the last place / move / skip / remove; returns its (view, id) or None."""
         with self._lock:
             if not self._undo:
                 return None
-            u = self._undo.pop()
-            if u.before is None:
-                self.clicks[u.view].pop(u.landmark, None)
-            else:
-                self.clicks[u.view][u.landmark] = np.array(u.before, dtype=np.float64)
-            if u.skipped_before:
-                self.skipped[u.view].add(u.landmark)
-            else:
-                self.skipped[u.view].discard(u.landmark)
-            self.stats["undos"] += 1
-            self._changed()
+            with self._edit():
+                u = self._undo.pop()
+                if u.before is None:
+                    self.clicks[u.view].pop(u.landmark, None)
+                else:
+                    self.clicks[u.view][u.landmark] = np.array(u.before, dtype=np.float64)
+                if u.skipped_before:
+                    self.skipped[u.view].add(u.landmark)
+                else:
+                    self.skipped[u.view].discard(u.landmark)
+                self.stats["undos"] += 1
             return u.view, u.landmark
 
     @property
@@ -419,8 +440,8 @@ class AnnotationSession:
         self._check_view(view)
         with self._lock:
             if view != self.active_view:
-                self.active_view = view
-                self.save()
+                with self._edit(bump=False):
+                    self.active_view = view
 
     # scale and notes
     def set_scale(self, a: str, b: str, mm: float | None) -> None:
@@ -433,17 +454,18 @@ class AnnotationSession:
         if pair is None:
             raise NaseviewError(f"distance {a}-{b}: expected two different landmark ids, "
                                 "e.g. al_l-al_r")
+        if mm is not None and mm != 0 and not (
+                isinstance(mm, (int, float)) and math.isfinite(mm) and 0 < mm < 500):
+            raise NaseviewError(f"distance {a}-{b}: {mm!r} mm is out of range; enter the "
+                                "calliper reading in mm, between 0 and 500")
         with self._lock:
             if mm is None or mm == 0:
                 if pair in self.scale_mm:
-                    del self.scale_mm[pair]
-                    self._changed()
+                    with self._edit():
+                        del self.scale_mm[pair]
                 return
-            if not (isinstance(mm, (int, float)) and math.isfinite(mm) and 0 < mm < 500):
-                raise NaseviewError(f"distance {a}-{b}: {mm!r} mm is not a plausible "
-                                    "measurement; enter the calliper reading in mm")
-            self.scale_mm[pair] = float(mm)
-            self._changed()
+            with self._edit():
+                self.scale_mm[pair] = float(mm)
 
     def set_scale_text(self, text: str) -> None:
         """Replace the optional distances (all but al_l-al_r) from text such as
@@ -465,24 +487,28 @@ class AnnotationSession:
                                     "n-prn=45.2")
             d = float(m.group(3))
             if not 0 < d < 500:
-                raise NaseviewError(f"distance {part!r}: expected a value in mm")
+                raise NaseviewError(f"distance {part!r}: expected a distance in mm, "
+                                    "between 0 and 500")
             parsed[pair] = d
         with self._lock:
             keep = {k: v for k, v in self.scale_mm.items() if k == ("al_l", "al_r")}
             keep.update(parsed)
             if keep != self.scale_mm:
-                self.scale_mm = keep
-                self._changed()
+                with self._edit():
+                    self.scale_mm = keep
 
     def set_case_id(self, case_id: str) -> None:
-        cid = _safe_id(case_id)
+        """Rename the patient (made file-name safe, :func:`safe_case_id`). Whether another
+        patient already has the id is for :class:`~naseview.intake.patients.PatientFolders`
+        to check; :meth:`write_case` never overwrites another patient's case anyway."""
+        cid = safe_case_id(case_id)
         if not cid:
             raise NaseviewError(f"case id {case_id!r}: use letters, digits, '-', '_' "
                                 "(no patient names)")
         with self._lock:
             if cid != self.case_id:
-                self.case_id = cid
-                self._changed()
+                with self._edit():
+                    self.case_id = cid
 
     # guidance
     def guidance(self) -> Guidance:
@@ -541,44 +567,144 @@ class AnnotationSession:
                                                       self.clicks[v].items()},
                              self.photos[v].width, self.photos[v].height)
                      for v in VIEWS}
-            extra = {"annotation": {"tool": "naseview annotate",
+            extra = {"annotation": {"tool": "naseview annotate", "session": self.uid,
                                     "skipped": {v: sorted(s) for v, s in
                                                 self.skipped.items() if s}}}
             return Case(self.folder, self.case_id, views, dict(self.scale_mm), self.notes,
                         extra)
 
+    def owns(self, case_dir: str | os.PathLike[str]) -> bool:
+        """Whether ``case_dir`` may be (re)written by this session: it does not exist, is
+        an empty folder, or holds a case this session wrote (its ``case.json`` carries
+        :attr:`uid`)."""
+        out = Path(case_dir)
+        if not out.exists():
+            return True
+        if not out.is_dir() or out.is_symlink():
+            return False
+        if not any(out.iterdir()):
+            return True
+        try:
+            ann = read_json(out / "case.json").get("annotation")
+        except NaseviewError:
+            return False
+        return isinstance(ann, dict) and ann.get("session") == self.uid
+
     def write_case(self, out_dir: str | os.PathLike[str]) -> Path:
-        """Write the case directory (photos copied byte for byte, ``case.json`` last).
+        """Write the case directory: all or nothing, and never over another patient.
+
+        The case (photos copied byte for byte, ``case.json`` last) is written into a
+        temporary folder beside ``out_dir`` and renamed to it, so readers see the old
+        case or the new one, never a mix. ``out_dir`` must not hold a case this session
+        did not write (:meth:`owns`); leftovers of an interrupted write are removed.
 
         Returns:
             the path of ``case.json``.
+        Raises:
+            NaseviewError: the case is not ready (:meth:`problems`), ``out_dir`` holds
+                another patient's case, or the disk refused the write.
         """
-        path = _write_case(self.to_case(), out_dir)
+        case = self.to_case()
+        out = Path(out_dir)
         with self._lock:
-            self.case_dir = Path(out_dir)
-            self._changed()
-        return path
+            _write_case_dir(case, out, self.owns)
+            with self._edit():
+                self.case_dir = out
+        return out / "case.json"
 
 
-def list_in_progress(root: str | os.PathLike[str]) -> list[tuple[Path, dict[str, Any]]]:
-    """Unfinished annotations under ``root`` (folders holding ``annotation.json``), newest
-    first, as (folder, parsed json); unreadable ones are left out."""
+def _taken(out: Path) -> NaseviewError:
+    return NaseviewError(f"{out}: another patient's case is already there; choose a "
+                         "different case id (nothing was overwritten)")
+
+
+def _write_case_dir(case: Case, out: Path, owns: Callable[[Path], bool]) -> None:
+    """Write ``case`` to ``out`` through a temporary sibling folder and a rename (see
+    :meth:`AnnotationSession.write_case`); ``owns(out)`` says whether ``out`` may be
+    replaced."""
+    parent = out.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+        for p in parent.iterdir():       # leftovers of an interrupted write of this case
+            if re.fullmatch(rf"\.{re.escape(out.name)}\.\w+\.(tmp|old)", p.name) \
+                    and p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p, ignore_errors=True)
+        if not owns(out):
+            raise _taken(out)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
+    except OSError as e:
+        raise NaseviewError(f"{out}: cannot write the case here ({one_line(e)}); choose "
+                            "a writable work folder (NASEVIEW_WORK_DIR)") from None
+    try:
+        _write_case(case, tmp)
+        if out.exists():
+            old = parent / f".{out.name}.{new_uid()}.old"
+            os.rename(out, old)
+            os.rename(tmp, out)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.rename(tmp, out)          # fails if another writer just took ``out``
+    except OSError as e:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if out.exists() and not owns(out):
+            raise _taken(out) from None
+        raise NaseviewError(f"{out}: could not write the case ({one_line(e)}); free some "
+                            "disk space and press Reconstruct again") from None
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+
+
+@dataclass(frozen=True)
+class InProgress:
+    """An annotation found under the in-progress folder (:func:`list_in_progress`).
+
+    Attributes:
+        folder: its folder.
+        case_id: its case id (the folder name when the file does not give one).
+        clicks: number of clicks.
+        updated: time of the last change (ISO 8601), ``""`` if unknown.
+        finished: its case was written (``case_dir`` set).
+        problem: ``None``, or the one-line error that :meth:`AnnotationSession.open`
+            raises for it (damaged or hand-edited out of range).
+    """
+
+    folder: Path
+    case_id: str
+    clicks: int
+    updated: str
+    finished: bool
+    problem: str | None = None
+
+
+def list_in_progress(root: str | os.PathLike[str]) -> list[InProgress]:
+    """The annotations under ``root`` (folders holding ``annotation.json``), newest first;
+    each is validated like :meth:`AnnotationSession.open` (a damaged one is listed with
+    its :attr:`InProgress.problem`)."""
     root = Path(root)
-    out: list[tuple[Path, dict[str, Any]]] = []
+    out: list[InProgress] = []
     if not root.is_dir():
         return out
-    for p in root.iterdir():
+    for p in sorted(root.iterdir()):
         f = p / ANNOTATION_FILE
-        if f.is_file():
-            try:
+        if not f.is_file():
+            continue
+        try:
+            st = parse_annotation(read_json(f), f, p)
+        except NaseviewError as e:
+            obj: Any = None
+            with contextlib.suppress(NaseviewError):
                 obj = read_json(f)
-            except NaseviewError:
-                continue
-            if obj.get("format") == ANNOTATION_FORMAT:
-                out.append((p, obj))
-    out.sort(key=lambda po: str(po[1].get("updated", "")), reverse=True)
+            cid = obj.get("id") if isinstance(obj, dict) else None
+            if not (isinstance(cid, str) and cid and safe_case_id(cid) == cid):
+                cid = p.name
+            out.append(InProgress(p, cid, 0, "", False, str(e)))
+            continue
+        out.append(InProgress(p, st.case_id, sum(len(c) for c in st.clicks.values()),
+                              st.updated, st.case_dir is not None))
+    out.sort(key=lambda a: a.updated, reverse=True)
     return out
 
 
-__all__ = ["ANNOTATION_FILE", "ANNOTATION_FORMAT", "AnnotationSession", "default_case_id",
-           "default_work_dir", "list_in_progress"]
+__all__ = ["ANNOTATION_FILE", "ANNOTATION_FORMAT", "AnnotationSession", "InProgress",
+           "default_case_id", "default_work_dir", "list_in_progress"]

@@ -18,7 +18,7 @@ import numpy as np
 
 from naseview import __version__
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_bytes
+from naseview.fileio import write_file_set
 from naseview.landmarks import VIEWS
 from naseview.report.data import DISCLAIMER, DISCLAIMER_DETAIL, ReportData
 from naseview.report.images import (
@@ -78,15 +78,21 @@ def _renders(data: ReportData, deidentified: bool, render_size: int
 
 
 def _header(data: ReportData, deidentified: bool) -> list[str]:
-    """Document head, title, case line and the disclaimer box."""
-    date = data.date or _dt.date.today().isoformat()
+    """Document head, title, case line and the disclaimer box. The de-identified version
+    names no case id and no date (nor anything else that could identify the patient)."""
+    if deidentified:
+        title = "naseview consultation report — de-identified"
+        meta = "De-identified version: no photos, no case id, no date"
+    else:
+        date = data.date or _dt.date.today().isoformat()
+        title = f"naseview consultation report — {_esc(data.case_id)}"
+        meta = f"Case <b>{_esc(data.case_id)}</b> · {_esc(date)}"
     return ["<!DOCTYPE html>", "<html lang='en'><head><meta charset='utf-8'>",
             "<meta name='viewport' content='width=device-width, initial-scale=1'>",
-            f"<title>naseview consultation report — {_esc(data.case_id)}</title>",
+            f"<title>{title}</title>",
             f"<style>{_CSS}</style></head><body>",
             "<h1>Nose consultation report</h1>",
-            f"<div class='meta'>Case <b>{_esc(data.case_id)}</b> · {_esc(date)}"
-            + (" · de-identified version (no photos)" if deidentified else "") + "</div>",
+            f"<div class='meta'>{meta}</div>",
             f"<div class='disclaimer'><strong>{_esc(DISCLAIMER)}</strong><br>"
             f"{_esc(DISCLAIMER_DETAIL)}</div>"]
 
@@ -202,20 +208,31 @@ def report_html(data: ReportData, deidentified: bool = False, render_size: int =
     return "\n".join(parts), images
 
 
+_PNG_PARTS = ("views", "measurements", "photos")
+"""The PNGs a report may have beside its HTML, ``<stem>-<part>.png``."""
+
+
 def write_report(data: ReportData, path: str | os.PathLike[str], deidentified: bool = False,
                  pngs: bool = True, render_size: int = 480) -> Path:
     """Write ``path`` (HTML) and, with ``pngs``, ``<stem>-views.png``,
-    ``<stem>-measurements.png`` and ``<stem>-photos.png`` beside it; all atomically.
+    ``<stem>-measurements.png`` and ``<stem>-photos.png`` beside it, all or nothing
+    (:func:`naseview.fileio.write_file_set`); PNGs of an earlier report of that name that
+    this one does not have (the photos, for a de-identified report) are removed.
 
     Returns:
         the HTML path.
+    Raises:
+        NaseviewError: not an ``.html`` name, or the folder is not writable / the disk is
+            full (an earlier report is then unchanged).
     """
     path = Path(path)
     if path.suffix.lower() not in (".html", ".htm"):
         raise NaseviewError(f"{path}: the report is an HTML file; give a name ending in "
                             ".html")
     text, images = report_html(data, deidentified, render_size)
-    if pngs:
-        for name, img in images.items():
-            atomic_write_bytes(path.with_name(f"{path.stem}-{name}.png"), png_bytes(img))
-    return atomic_write_bytes(path, text.encode("utf-8"))
+    files = {f"{path.stem}-{name}.png": png_bytes(img)
+             for name, img in images.items()} if pngs else {}
+    files[path.name] = text.encode("utf-8")
+    write_file_set(path.parent, files,
+                   remove=[f"{path.stem}-{name}.png" for name in _PNG_PARTS])
+    return path

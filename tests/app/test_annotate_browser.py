@@ -8,7 +8,13 @@ reconstructed landmarks must lie within 0.5 mm of ``truth.json`` (after a rigid
 alignment: the SPEC frame is built from the landmarks themselves, so its axes differ
 slightly from the model frame of the truth). Prints clicks, pointer travel and time.
 
-Skipped when Playwright or Chromium is missing; run with ``-m browser``.
+A second test drives the intake's refusals in the page (issue 12, findings 3 and 6): an
+id another patient has is refused and that patient opens only by its own button; a photo
+over the upload limit and a decompression bomb are refused with one line while the button
+stays usable.
+
+Skipped when Playwright or Chromium is missing, except under ``CI=true`` where that fails
+(:func:`helpers.browser_or_skip`); run with ``-m browser``.
 """
 
 from __future__ import annotations
@@ -20,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import viser
-from helpers import wait_for
+from helpers import CHROMIUM, CHROMIUM_FLAGS, bomb_png, browser_or_skip, wait_for
 from viser import transforms as vtf
 
+from naseview.app.guard import guarded_viser_server
 from naseview.app.serve import NaseviewApp
 from naseview.case import read_case
 from naseview.facemodel import load_face_model
@@ -33,9 +39,7 @@ from naseview.testbed.synth import synthesize_case
 
 pytestmark = pytest.mark.browser
 
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-         "--disable-background-networking"]
+FLAGS = CHROMIUM_FLAGS
 UPLOADS = (("Front", "front"), ("Bottom", "bottom"), ("Left", "left"), ("Right", "right"))
 
 
@@ -60,13 +64,12 @@ def synth_case(tmp_path_factory) -> Path:
 
 def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
         synth_case: Path, tmp_path: Path, monkeypatch):
-    sync_api = pytest.importorskip("playwright.sync_api")
-    if not Path(CHROMIUM).exists():
-        pytest.skip("chromium not installed")
+    browser_or_skip()
+    from playwright import sync_api
     monkeypatch.setenv("NASEVIEW_WORK_DIR", str(tmp_path / "work"))
     case = read_case(synth_case)
     truth = read_reconstruction(synth_case / "truth.json")
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     app = NaseviewApp(server, model="generic")
     page_obj = app.new_patient.annotate
     try:
@@ -172,3 +175,78 @@ def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
     finally:
         app.close()
         server.stop()
+
+
+def test_new_patient_page_refuses_a_taken_id_and_oversized_photos(
+        synth_case: Path, tmp_path: Path, monkeypatch):
+    browser_or_skip()
+    from playwright import sync_api
+    work = tmp_path / "work"
+    monkeypatch.setenv("NASEVIEW_WORK_DIR", str(work))
+    existing = work / "P001" / "case"                   # a patient saved earlier
+    shutil.copytree(synth_case, existing)
+    before = {p: p.read_bytes() for p in existing.rglob("*") if p.is_file()}
+    big = tmp_path / "huge.jpg"                         # over the 60 MB upload limit
+    with open(big, "wb") as f:
+        f.write(b"\xff\xd8\xff\xe0")
+        f.truncate(61 * 2**20)
+    # 300 KB declaring 32000 x 32000 px, named to run a script if the page rendered it
+    bomb = tmp_path / "<img src=x onerror=window.__pwned=1>.png"
+    bomb.write_bytes(bomb_png(32000, 32000))
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
+    app = NaseviewApp(server, model="generic")
+    page_obj = app.new_patient.annotate
+    try:
+        with sync_api.sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+            try:
+                page = browser.new_page(viewport={"width": 1280, "height": 800})
+                page.goto(f"http://127.0.0.1:{server.get_port()}/")
+                page.wait_for_selector("canvas", timeout=30_000)
+                page.get_by_role("button", name="New patient: photos and landmarks").click()
+                wait_for(lambda: page_obj.session is not None, 10, "a new patient")
+                own_id = page_obj.session.case_id
+                assert own_id != "P001"
+
+                # the id of another patient is refused; that patient opens only on purpose
+                field = page.locator(f"input[value='{own_id}']").element_handle()  # no label
+                field.fill("P001")
+                field.press("Enter")
+                page.get_by_text("already used by another patient").first.wait_for(
+                    timeout=10_000)
+                open_btn = page.get_by_role("button", name="Open patient P001")
+                open_btn.wait_for(timeout=10_000)
+                assert page_obj.session.case_id == own_id
+
+                # over the limit while streaming, then a bomb: one line each, nothing kept
+                photo_btn = page.get_by_role("button", name="Front photo")
+                for path, text in ((big, "is too large (limit 60 MB)"),
+                                   (bomb, "megapixels")):
+                    with page.expect_file_chooser() as fc:
+                        photo_btn.click()
+                    fc.value.set_files(str(path))
+                    page.get_by_text(text).first.wait_for(timeout=20_000)
+                    wait_for(photo_btn.is_enabled, 10, "the photo button to be usable")
+                wait_for(lambda: not server.gui._current_file_upload_states, 20,
+                         "the refused upload to be dropped")
+                page.get_by_text("<img src=x onerror=window.__pwned=1>.png").first.wait_for(
+                    timeout=10_000)                     # the name is shown as text...
+                assert page.evaluate("window.__pwned") is None   # ...never run
+                assert "front" not in page_obj.session.photos
+                with page.expect_file_chooser() as fc:          # a real photo still goes in
+                    photo_btn.click()
+                fc.value.set_files(str(synth_case / read_case(synth_case).views["front"].image))
+                wait_for(lambda: "front" in page_obj.session.photos, 15, "the front photo")
+
+                open_btn.click()
+                wait_for(lambda: app.source == existing, 10, "the existing patient to open")
+                assert app.wait_ready(60), "the existing patient did not open"
+            finally:
+                browser.close()
+        assert app.case_id == read_case(existing).id
+        assert {p: p.read_bytes() for p in existing.rglob("*") if p.is_file()} == before
+        assert sorted(p.name for p in work.iterdir()) == ["P001", "in-progress"]
+    finally:
+        app.close()
+        server.stop()
+

@@ -8,15 +8,15 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
-import viser
 from helpers import png_bytes
 
 from naseview.app.annotate_page import AnnotatePage
+from naseview.app.guard import guarded_viser_server
 
 
 @pytest.fixture()
 def page(tmp_path: Path):
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     page = AnnotatePage(server, None, work_dir=tmp_path, diagram_model="generic")
     try:
         yield page

@@ -7,24 +7,20 @@ Skipped when Playwright or Chromium is missing; run with ``-m browser``.
 
 from __future__ import annotations
 
-import shutil
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
-import viser
-from helpers import ict_baseline, wait_for
+from helpers import CHROMIUM, CHROMIUM_FLAGS, browser_or_skip, ict_baseline, wait_for
 from viser import transforms as vtf
 
+from naseview.app.guard import guarded_viser_server
 from naseview.app.serve import NaseviewApp
 
 pytestmark = pytest.mark.browser
 
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-         "--disable-background-networking"]
 
 
 def project(camera, X: np.ndarray) -> np.ndarray:
@@ -38,7 +34,7 @@ def project(camera, X: np.ndarray) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def app_server():
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     app = NaseviewApp(server)
     app.open_baseline(ict_baseline(), case_id="ict-mean")
     assert app.wait_ready(60)
@@ -48,12 +44,11 @@ def app_server():
 
 
 def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
-    sync_api = pytest.importorskip("playwright.sync_api")
-    if not Path(CHROMIUM).exists():
-        pytest.skip("chromium not installed")
+    browser_or_skip()
+    from playwright import sync_api  # after the check: a missing package fails in CI
     server, app = app_server
     with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
+        browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=CHROMIUM_FLAGS)
         try:
             page = browser.new_page(viewport={"width": 820, "height": 540})
             page.goto(f"http://127.0.0.1:{server.get_port()}/")

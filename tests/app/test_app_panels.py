@@ -7,9 +7,9 @@ from dataclasses import fields
 from types import SimpleNamespace
 
 import pytest
-import viser
 
 from naseview.app import panels as panels_module
+from naseview.app.guard import guarded_viser_server
 from naseview.app.panels import (
     PHOTO_FLAG_FACTOR,
     PHOTO_FLAG_MIN_PX,
@@ -30,7 +30,7 @@ def test_panel_fields_are_fields_of_the_stage_params():
 
 
 def test_an_unknown_parameter_name_fails_loudly(monkeypatch):
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     try:
         p = Panels(server, SimpleNamespace(params_changed=lambda stage: None))
         p.build_params(CurveParams(), RefineParams())

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import viser
 from helpers import GaussianSolver, drag, ict_baseline
 
+from naseview.app.guard import guarded_viser_server
 from naseview.app.scene import FaceScene, diverging_colors, nice_limit, split_region
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
@@ -20,7 +20,7 @@ def baseline() -> Baseline:
 def test_scene_update_sends_only_the_nose(baseline):
     """With a real viser server (no browser): a solve updates the nose mesh handle and
     never resends the rest of the face."""
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     ctl = EditController(baseline, GaussianSolver(baseline))
     try:
         scene = FaceScene(server, ctl, ["prn", "al_l", "al_r"], region=baseline.nose_ids)

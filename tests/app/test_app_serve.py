@@ -3,14 +3,15 @@ photos, reopening a saved session exactly, and a crashing solver shown in the pa
 
 from __future__ import annotations
 
+import json
 import shutil
 
 import numpy as np
 import pytest
-import viser
 from helpers import GaussianSolver, drag, ict_baseline, landmarks_close
 
 from naseview.app.export import mesh_file
+from naseview.app.guard import guarded_viser_server
 from naseview.app.serve import NaseviewApp
 from naseview.editing.baseline import Baseline
 from naseview.facemodel import load_face_model
@@ -27,14 +28,13 @@ def baseline() -> Baseline:
 @pytest.fixture(scope="module")
 def reconstruction_dir(tmp_path_factory):
     """A `naseview reconstruct`-style output directory made from a synthetic case's
-    ground truth (so this test does not depend on the pipeline), with the case's photos."""
-    root = tmp_path_factory.mktemp("app")
+    ground truth (so this test does not depend on the pipeline), with the case's photos
+    in a folder inside it (an output follows no path leaving its folder)."""
+    out = tmp_path_factory.mktemp("app")
     model = load_face_model("ict")
-    case = synthesize_case(root / "case", model, seed=1, size=512).parent
-    out = root / "out"
-    out.mkdir()
+    case = synthesize_case(out / "case", model, seed=1, size=512).parent
     rec = read_reconstruction(case / "truth.json")
-    rec.extra["case_dir"] = str(case)
+    rec.extra["case_dir"] = str(case)            # absolute, as older versions wrote it
     write_reconstruction(rec, out / "reconstruction.json")
     shutil.copy(case / "truth_face.ply", out / "face.ply")
     V, F = read_mesh(out / "face.ply")
@@ -47,7 +47,7 @@ def test_app_opens_reconstruction_with_photos_and_session_reopens_exactly(
     servers = []
     apps = []
     try:
-        server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+        server = guarded_viser_server("127.0.0.1", 0, verbose=False)
         servers.append(server)
         app = NaseviewApp(server)
         apps.append(app)
@@ -63,14 +63,17 @@ def test_app_opens_reconstruction_with_photos_and_session_reopens_exactly(
         assert ctl.wait_idle(30)
         name, data = app.file_for("session", "json")
         assert name.endswith("-session.json")
-        session = tmp_path / name
+        # a downloaded session stores no path; kept in the patient's case folder it finds
+        # the photos there
+        assert json.loads(data)["app"]["case_dir"] is None
+        session = reconstruction_dir / "case" / name
         session.write_bytes(data)
         fname, stl = app.file_for("mesh", "stl", part="nose", state="simulated")
         (tmp_path / fname).write_bytes(stl)
         Vn, _ = read_mesh(tmp_path / fname)
         assert len(Vn) < len(ctl.baseline.V)
 
-        server2 = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+        server2 = guarded_viser_server("127.0.0.1", 0, verbose=False)
         servers.append(server2)
         app2 = NaseviewApp(server2)
         apps.append(app2)
@@ -94,7 +97,7 @@ def test_app_shows_a_crashed_solve_in_the_page_and_keeps_serving(baseline):
     def factory(b, params, iters):
         return GaussianSolver(b, fail_if="c"), ["prn", "c"], b.nose_ids
 
-    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     app = NaseviewApp(server, solver_factory=factory)
     try:
         app.open_baseline(baseline, case_id="crash")

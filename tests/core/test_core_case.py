@@ -119,3 +119,46 @@ def test_write_case_validates_before_writing(tmp_path: Path) -> None:
     with pytest.raises(NaseviewError, match="bogus"):
         write_case(case, out)
     assert not out.exists()
+
+
+@pytest.mark.parametrize("where", ["absolute", "dotdot", "symlink"])
+def test_case_photo_outside_the_case_folder_is_refused(tmp_path: Path, where: str) -> None:
+    other = tmp_path / "other-patient"
+    other.mkdir()
+    write_image(other / "front.png", np.full((64, 80, 3), 90, np.uint8))  # a real photo
+    root = tmp_path / "c"
+    image = {"absolute": str(other / "front.png"), "dotdot": "../other-patient/front.png",
+             "symlink": "link/front.png"}[where]
+    _make_case(root, views=_views_with("front", image=image))
+    (root / "link").symlink_to(other)
+    with pytest.raises(NaseviewError) as e:
+        read_case(root)
+    msg = str(e.value)
+    assert "\n" not in msg and "case.json" in msg and "views.front.image" in msg
+    assert "absolute" in msg if where == "absolute" else "outside" in msg
+
+
+def test_case_photo_in_a_subfolder_is_fine(tmp_path: Path) -> None:
+    root = _make_case(tmp_path / "c", views=_views_with("front", image="photos/front.png"))
+    write_image(root / "photos" / "front.png", np.full((64, 80, 3), 90, np.uint8))
+    assert read_case(root).image_path("front").is_file()
+
+
+def test_scale_out_of_range_states_the_accepted_range(tmp_path: Path) -> None:
+    root = _make_case(tmp_path / "c", scale_mm={"al_l-al_r": 5000})
+    with pytest.raises(NaseviewError) as e:
+        read_case(root)
+    msg = str(e.value)
+    assert "scale_mm.al_l-al_r" in msg and "5000" in msg and "(0, 500)" in msg
+
+
+def test_case_json_key_twice_is_named_and_bom_is_accepted(tmp_path: Path) -> None:
+    root = _make_case(tmp_path / "c")
+    text = (root / "case.json").read_text()
+    (root / "case.json").write_bytes(b"\xef\xbb\xbf" + text.encode())   # Notepad's BOM
+    assert read_case(root).id == "t1"
+    (root / "case.json").write_text(text.replace('"prn": [40, 40]',
+                                                 '"prn": [40, 40], "prn": [41, 41]'))
+    with pytest.raises(NaseviewError) as e:
+        read_case(root)
+    assert "case.json" in str(e.value) and "'prn'" in str(e.value)

@@ -10,7 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from helpers import png_bytes
+from helpers import bomb_png, png_bytes
 
 from naseview.errors import NaseviewError
 from naseview.intake.photos import MAX_SIDE_PX, decode_photo
@@ -93,6 +93,7 @@ def test_huge_photo_is_downscaled_and_clicks_are_in_stored_pixels(tmp_path: Path
     (b"hello, this is a text file\n" * 10, "not a JPEG or PNG"),
     (b"\x00\x00\x00\x18ftypheic" + b"\x00" * 64, "HEIC"),
     (b"\xff\xd8\xff\xe0" + b"\x00" * 100, "damaged"),
+    (bomb_png(32000, 32000), r"32000x32000 px \(1024 megapixels\) is over the limit"),
 ])
 def test_not_an_image_gives_one_line_and_changes_nothing(tmp_path: Path, data, match):
     s = AnnotationSession.create(tmp_path / "p")

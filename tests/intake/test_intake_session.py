@@ -136,8 +136,9 @@ def test_autosave_and_resume_after_restart(tmp_path: Path, photos):
     del s                                            # "server restart": nothing in memory
     with pytest.raises(NaseviewError, match="already in progress"):
         AnnotationSession.create(folder)
-    [(found, meta)] = list_in_progress(tmp_path / "in-progress")
-    assert found == folder and meta["id"] == "p7"
+    [found] = list_in_progress(tmp_path / "in-progress")
+    assert found.folder == folder and found.case_id == "p7" and found.problem is None
+    assert found.clicks == 2 and not found.finished     # g and n; k is skipped
     r = AnnotationSession.open(folder)
     assert r.case_id == "p7" and r.active_view == "bottom"
     assert set(r.photos) == {"front", "bottom"}
