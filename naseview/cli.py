@@ -53,8 +53,16 @@ def build_parser() -> argparse.ArgumentParser:
 
     s = sub.add_parser("synth", help="render synthetic cases with known ground truth")
     s.add_argument("out_dir", type=Path, help="output case directory (a parent with --batch)")
-    s.add_argument("--model", default="ict",
-                   help="face model of the synthetic identity: ict, generic or a .npz path")
+    s.add_argument("--model", default=None,
+                   help="face model of the synthetic identity: ict (default), generic or a "
+                        ".npz path")
+    s.add_argument("--scan", type=Path, default=None,
+                   help="render this face scan (OBJ with MTL/texture, or PLY; mm) instead "
+                        "of a face-model identity; needs --landmarks")
+    s.add_argument("--landmarks", type=Path, default=None,
+                   help="the scan's landmarks (SPEC §8 naseview.scan-landmarks/1 JSON)")
+    s.add_argument("--texture", type=Path, default=None,
+                   help="texture image of the scan (default: the OBJ's MTL map_Kd)")
     s.add_argument("--seed", type=int, default=0, help="random seed (identity, rig, skin)")
     s.add_argument("--noise-px", type=float, default=1.5,
                    help="Gaussian click noise, pixels (default 1.5)")
@@ -92,6 +100,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--model", default=None, help="base face model for stage 3")
     s.add_argument("--stages", default="1,2,3",
                    help="stages to run and evaluate: " + "; ".join(STAGE_TITLES.values()))
+    s.add_argument("--maps", type=Path, default=None, metavar="DIR",
+                   help="write each case's nose surface error colour map (front, profile, "
+                        "below; mm colour bar) into DIR as <case>-surface-error.png")
+    s.add_argument("--no-ablation", action="store_true",
+                   help="skip the stage-3 ablation rows (faster)")
     s.set_defaults(func=evaluate_command)
 
     s = sub.add_parser("serve", help="open the 3D viewer / editor in the browser")

@@ -34,16 +34,26 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from naseview.camera import Camera
 from naseview.case import Case, read_case
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel, load_face_model
+from naseview.fileio import check_output_dir, json_bytes, sha256_hex, write_file_set
 from naseview.geometry.region import submesh
 from naseview.measurements import clinical_measurements
-from naseview.meshio import export_mesh
-from naseview.reconstruction import Reconstruction, write_reconstruction
+from naseview.meshio import MESH_FORMATS, mesh_bytes
+from naseview.reconstruction import (
+    CASE_DIR_KEY,
+    CASE_SHA256_KEY,
+    FILES_KEY,
+    RECONSTRUCTION_FILE,
+    Reconstruction,
+)
 from naseview.stage1_landmarks import SfmParams, SfmResult, bundle_adjust
+from naseview.stage1_landmarks.single_view import one_photo_sight_lines
 from naseview.stage2_curves import CurveParams, CurvesResult, extract_curves
 from naseview.stage3_mesh import RefineParams, RefineResult, refine
+from naseview.stage3_mesh.sightline import Placed, SightLine, place_one_photo_landmarks
 from naseview.stages import STAGE_NAMES
 
 ProgressFn = Callable[[str, float], object]
@@ -92,6 +102,8 @@ class PipelineResult:
         nose_vertex_ids: (N,) vertices of the nose region, or None.
         stage_seconds: stage name (:data:`STAGE_NAMES`) -> wall time (s).
         warnings: one-line messages for the user, from all stages.
+        case_root: the case folder the run read (:func:`write_outputs` stores it relative
+            to the output folder as ``case_dir``), or None.
     """
 
     reconstruction: Reconstruction
@@ -103,6 +115,7 @@ class PipelineResult:
     nose_vertex_ids: np.ndarray | None = None
     stage_seconds: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
+    case_root: Path | None = None
 
 
 def parse_stages(stages: Iterable[int] | str) -> tuple[int, ...]:
@@ -152,11 +165,94 @@ def reconstruct(case: Case, model: FaceModel | str | None = None,
         _take_stage2(result, _timed(result, progress, 2,
                                     lambda: extract_curves(case, None, sfm, params.curves)))
     if 3 in stages:
-        rec = result.reconstruction
-        _take_stage3(result, _timed(result, progress, 3,
-                                    lambda: refine(_face_model(model), rec, params.refine)))
+        run_stage3(result, case, _face_model(model), params.refine, progress)
     _take_run_info(result, case)
     return result
+
+
+def run_stage3(result: PipelineResult, case: Case, model: FaceModel,
+               params: RefineParams | None = None,
+               progress: ProgressFn | None = None) -> None:
+    """Stage 3 on a result of stages 1(-2) of ``case``, in place: the one-photo landmarks
+    on their lines of sight, then :func:`~naseview.stage3_mesh.refine` (the benchmarks
+    run it on a copy of a cached stage-1/2 result for each stage-3 variant)."""
+    rec = result.reconstruction
+
+    def stage3() -> RefineResult:
+        _take_sight_lines(result, case, model, params)
+        return refine(model, rec, params)
+
+    _take_stage3(result, _timed(result, progress, 3, stage3))
+
+
+def _take_sight_lines(result: PipelineResult, case: Case, model: FaceModel,
+                      params: RefineParams | None) -> None:
+    """Landmarks clicked in one photo (placed by stage 1 by symmetry or template, or left
+    out) moved to where their line of sight meets the fitted face
+    (:func:`~naseview.stage3_mesh.sightline.place_one_photo_landmarks`), with their
+    uncertainty along the ray; a placed g moves the whole frame so that g stays the
+    origin (SPEC §4). Stage 1's placement stays where the line misses the face."""
+    rec, sfm = result.reconstruction, result.sfm
+    if sfm is None:
+        return
+    ids = [k for k in (*sfm.one_photo, *sfm.left_out)]
+    lines = {k: SightLine(*v) for k, v in
+             one_photo_sight_lines(case, dict(rec.cameras), ids).items()}
+    placed = _fused(place_one_photo_landmarks(model, rec, lines, params), lines, rec, sfm)
+    if not placed:
+        return
+    shift = placed["g"].position if "g" in placed else np.zeros(3)
+    if "g" in placed:
+        _translate(rec, -shift)
+    unc = rec.extra.setdefault("landmark_uncertainty_mm", {})
+    how = rec.extra.setdefault("landmarks_one_photo", {})
+    for k, pl in placed.items():
+        rec.landmarks[k] = np.asarray(pl.position, float) - shift
+        unc[k] = round(float(pl.sd_along_mm), 4)
+        how[k] = "line of sight"
+    rec.extra["landmarks_left_out"] = [k for k in rec.extra.get("landmarks_left_out", [])
+                                       if k not in placed]
+    rec.measurements = clinical_measurements(rec.landmarks, rec.curves or None)
+    result.warnings.append(
+        "stage 3: landmark(s) " + ", ".join(f"{k} (+-{p.sd_along_mm:.1f} mm along the ray)"
+                                            for k, p in placed.items())
+        + " clicked in one photo placed where the line of sight meets the fitted face")
+
+
+def _fused(placed: dict[str, Placed], lines: dict[str, SightLine], rec: Reconstruction,
+           sfm: SfmResult) -> dict[str, Placed]:
+    """Each placement on the face combined with stage 1's (symmetry or template) depth on
+    the same ray, by inverse variance along the ray: two independent estimates of one
+    depth. Only where the face states a smaller uncertainty along the ray than stage 1
+    does; elsewhere stage 1's placement stays. A landmark stage 1 left out keeps the
+    face's."""
+    out = {}
+    for k, pl in placed.items():
+        ln, cov = lines[k], sfm.covariance_mm2.get(k)
+        if k not in rec.landmarks or cov is None:
+            out[k] = pl
+            continue
+        sd1 = float(np.sqrt(max(float(ln.d @ np.asarray(cov) @ ln.d), 1e-12)))
+        if pl.sd_along_mm >= sd1:
+            continue
+        lam1 = float((np.asarray(rec.landmarks[k]) - ln.C) @ ln.d)
+        lam2 = float((pl.position - ln.C) @ ln.d)
+        w1, w2 = 1.0 / sd1 ** 2, 1.0 / pl.sd_along_mm ** 2
+        lam = (w1 * lam1 + w2 * lam2) / (w1 + w2)
+        out[k] = Placed(ln.C + lam * ln.d, float(1.0 / np.sqrt(w1 + w2)), pl.view)
+    return out
+
+
+def _translate(rec: Reconstruction, delta: np.ndarray) -> None:
+    """Move every 3D quantity of ``rec`` by ``delta`` (mm): landmarks, curves,
+    ad-landmarks and cameras (``x_cam = R (X - delta) + t'``, ``t' = t + R delta``)."""
+    rec.landmarks = {k: np.asarray(v, float) + delta for k, v in rec.landmarks.items()}
+    rec.curves = {k: np.asarray(v, float).reshape(-1, 3) + delta if len(v) else v
+                  for k, v in (rec.curves or {}).items()}
+    if rec.ad_landmarks is not None and len(rec.ad_landmarks):
+        rec.ad_landmarks = np.asarray(rec.ad_landmarks, float) + delta
+    rec.cameras = {v: Camera(c.K, c.R, c.t - c.R @ delta, c.width, c.height)
+                   for v, c in rec.cameras.items()}
 
 
 def _timed(result: PipelineResult, progress: ProgressFn | None, stage: int,
@@ -212,10 +308,10 @@ def _take_stage3(result: PipelineResult, refined: RefineResult) -> None:
 
 
 def _take_run_info(result: PipelineResult, case: Case) -> None:
-    """The keys every run adds: the case folder (the app finds the photos there), all
-    warnings and the stage times."""
+    """What every run adds: the case folder (:func:`write_outputs` stores it, the app
+    finds the photos there), all warnings and the stage times."""
     rec = result.reconstruction
-    rec.extra["case_dir"] = str(Path(case.root).resolve())
+    result.case_root = Path(case.root)
     rec.extra["warnings"] = list(result.warnings)
     rec.extra["stage_seconds"] = {k: round(v, 4) for k, v in result.stage_seconds.items()}
 
@@ -249,30 +345,68 @@ def stage3_extra(refined: RefineResult) -> dict[str, Any]:
     }}
 
 
-def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
-                  export: Iterable[str] = ()) -> list[Path]:
-    """Write the SPEC §5 outputs of a pipeline run, each file atomically.
+def stored_case_dir(result: PipelineResult, out_dir: str | os.PathLike[str]
+                    ) -> tuple[str | None, str | None]:
+    """The ``case_dir`` and ``case_sha256`` of ``reconstruction.json`` in ``out_dir``: the
+    case folder relative to the output folder and the SHA-256 of its ``case.json`` (a
+    reader follows a folder outside the output only to that very case,
+    :func:`naseview.reconstruction.output_case_dir`); (None, None) when the run read no
+    folder."""
+    if result.case_root is None:
+        return None, None
+    case_json = Path(result.case_root) / "case.json"
+    try:
+        digest: str | None = sha256_hex(case_json.read_bytes())
+    except OSError:
+        digest = None
+    rel = Path(os.path.relpath(os.path.realpath(result.case_root), os.path.realpath(out_dir)))
+    return rel.as_posix(), digest
 
-    ``reconstruction.json`` always; ``face.ply`` and ``nose.ply`` (plus ``face.<fmt>`` and
-    ``nose.<fmt>`` for each ``export`` format: stl, obj, glb) when stage 3 made a mesh.
 
-    Returns:
-        the paths written.
+def output_files(result: PipelineResult, out_dir: str | os.PathLike[str],
+                 export: Iterable[str] = ()) -> dict[str, bytes]:
+    """File name -> content of the output set of a run, ``reconstruction.json`` last.
+
+    ``face.ply`` and ``nose.ply`` (plus ``face.<fmt>`` and ``nose.<fmt>`` for each
+    ``export`` format: stl, obj, glb) when stage 3 made a mesh; ``reconstruction.json``
+    records their SHA-256 (key ``files``) and the case folder relative to ``out_dir``.
     """
-    out = Path(out_dir)
-    written = [write_reconstruction(result.reconstruction, out / "reconstruction.json")]
+    files: dict[str, bytes] = {}
     if result.face_vertices is not None and result.faces is not None:
         V, F = np.asarray(result.face_vertices), np.asarray(result.faces)
         Vn, Fn = submesh(V, F, np.asarray(result.nose_vertex_ids))[:2]
-        for fmt in ("ply", *[e for e in export if e != "ply"]):
-            written.append(export_mesh(out / f"face.{fmt}", V, F))
-            written.append(export_mesh(out / f"nose.{fmt}", Vn, Fn))
-    return written
+        for fmt in dict.fromkeys(("ply", *export)):
+            files[f"face.{fmt}"] = mesh_bytes(V, F, fmt)
+            files[f"nose.{fmt}"] = mesh_bytes(Vn, Fn, fmt)
+    obj = result.reconstruction.to_json()
+    obj[CASE_DIR_KEY], obj[CASE_SHA256_KEY] = stored_case_dir(result, out_dir)
+    obj[FILES_KEY] = {name: sha256_hex(data) for name, data in files.items()}
+    files[RECONSTRUCTION_FILE] = json_bytes(obj)
+    return files
+
+
+def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
+                  export: Iterable[str] = ()) -> list[Path]:
+    """Write the SPEC §5 outputs of a pipeline run (:func:`output_files`), all or nothing.
+
+    Readers see the previous set or the new one, never a mix
+    (:func:`naseview.fileio.write_file_set`); meshes of an earlier run that this one does
+    not write (another ``--export``, no stage 3) are removed with the new set.
+
+    Returns:
+        the paths written, ``reconstruction.json`` last.
+    Raises:
+        NaseviewError: the folder is not writable or the disk is full (the previous
+            result is then unchanged).
+    """
+    stale = [f"{part}.{fmt}" for part in ("face", "nose") for fmt in MESH_FORMATS]
+    return write_file_set(out_dir, output_files(result, out_dir, export), remove=stale)
 
 
 def reconstruct_command(args: argparse.Namespace) -> int:
     """``naseview reconstruct CASE_DIR -o OUT_DIR [--stages 1,2,3] [--export stl]``."""
     stages = parse_stages(getattr(args, "stages", "1,2,3"))
+    check_output_dir(args.output)
     case = read_case(args.case_dir)
 
     def progress(name: str, seconds: float) -> None:

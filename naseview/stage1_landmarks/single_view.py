@@ -204,3 +204,17 @@ def ray_covariance(cam: Camera, X: np.ndarray, d: np.ndarray, sd_along: float,
     lateral = math.hypot(sigma_px * float(cam.depth(X)[0]) / cam.focal_px, sd_camera)
     P = np.outer(d, d)
     return (sd_along**2 + sd_camera**2) * P + lateral**2 * (np.eye(3) - P)
+
+
+def one_photo_sight_lines(case: Case, cameras: dict[str, Camera],
+                          ids: list[str]) -> dict[str, tuple[str, np.ndarray, np.ndarray]]:
+    """Id -> (photo, camera centre (3,), unit ray direction (3,)) of each landmark in
+    ``ids`` that is clicked in exactly one photo with a camera (stage 3 places it where
+    this line meets the fitted face)."""
+    out: dict[str, tuple[str, np.ndarray, np.ndarray]] = {}
+    for lid in ids:
+        views = [v for v, view in case.views.items() if lid in view.landmarks]
+        if len(views) == 1 and views[0] in cameras:
+            C, d = cameras[views[0]].rays(case.views[views[0]].landmarks[lid])
+            out[lid] = (views[0], np.asarray(C, float), np.asarray(d[0], float))
+    return out

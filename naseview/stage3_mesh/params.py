@@ -51,6 +51,8 @@ _RANGES: dict[str, tuple[Range, str]] = {
     "warp_radius_mm": _R(0, 200, True, False, "the warp's reach around handles, mm"),
     "release_mm": _R(0, math.inf, False, False, "the handle miss that releases it, mm "
                                                     "(inf: none)"),
+    "sight_iterations": _R(0, 20, True, True, "fit / line-of-sight placement rounds of "
+                                              "one-photo landmarks (0: stage 1's)"),
     "arap_iterations": _R(0, 10_000, True, True, "the ARAP iterations"),
     "arap_tol_mm": _R(0, 1, True, False, "the ARAP stopping step, mm"),
     "arap_anderson": _R(0, 50, True, True, "the Anderson memory (0: plain ARAP)"),
@@ -112,6 +114,22 @@ class RefineParams:
             contradicts its neighbours on this face model (e.g. a landmark convention the
             model does not share); it is not made a hard ARAP constraint (warning), which
             would crumple the mesh around it. ``inf`` keeps every handle (the paper).
+            With ``keep_landmarks`` this applies to sub-landmarks only.
+        keep_landmarks: a landmark handle is released only when stage 1 names its click
+            as suspect (``extra.suspect_clicks``): the mesh passes through every accepted
+            click; ``False``: landmarks are released by ``release_mm`` like sub-landmarks.
+        slide_landmarks: a landmark whose model vertex the smooth base misses by more than
+            ``release_mm`` (a nose the model cannot reach: the miss is along the skin) is
+            held at the base vertex nearest to it instead
+            (:func:`~naseview.stage3_mesh.solve.slide_far_landmarks`), so ARAP does not
+            drag the skin sideways; the mesh still passes through the click.
+        warp_carries_landmarks: a slid landmark that the smooth base already passes
+            within max(0.2 mm, its stated uncertainty) of is not a hard ARAP handle (the
+            warp carries it); it is held only if ARAP then moves the skin beyond that.
+        sight_iterations: landmarks clicked in one photo are placed where their line of
+            sight meets the fitted face, alternating fit and placement this many times
+            (:mod:`~naseview.stage3_mesh.sightline`; 0: keep stage 1's symmetry/template
+            placement). Needs the sight lines (:func:`~naseview.stage3_mesh.refine`).
 
     ARAP (eq. 19-20; paper: Open3D ARAP, 50 iterations):
         use_arap: run ARAP (``False``: only the base fit, for the ablation).
@@ -158,6 +176,10 @@ class RefineParams:
     warp_bending_mm2: float = 0.5
     warp_radius_mm: float = 25.0
     release_mm: float = 1.0
+    keep_landmarks: bool = True
+    slide_landmarks: bool = True
+    warp_carries_landmarks: bool = False
+    sight_iterations: int = 0
     use_arap: bool = True
     arap_iterations: int = 50
     arap_tol_mm: float = 1e-3

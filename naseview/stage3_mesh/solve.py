@@ -31,7 +31,9 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 
+import igl
 import numpy as np
+from scipy.spatial import cKDTree
 
 from naseview.facemodel import FaceModel
 from naseview.geometry.region import grow_by_distance
@@ -48,7 +50,7 @@ _SubLandmarks = tuple[np.ndarray | None, Sequence[AdLandmarkTag] | None]
 """Stage 2's (M, 3) ad-landmarks and their M tags (both None when there are none)."""
 
 
-def _sublandmarks(reconstruction: Reconstruction) -> _SubLandmarks:
+def sublandmarks(reconstruction: Reconstruction) -> _SubLandmarks:
     """The reconstruction's ad-landmarks and tags; (None, None) when it has none."""
     ad = reconstruction.ad_landmarks
     tags: Sequence[AdLandmarkTag] | None = reconstruction.ad_landmark_tags
@@ -57,7 +59,7 @@ def _sublandmarks(reconstruction: Reconstruction) -> _SubLandmarks:
     return ad, tags
 
 
-def _warped_base(model: FaceModel, fit: BaseFit, landmarks: dict[str, np.ndarray],
+def warped_base(model: FaceModel, fit: BaseFit, landmarks: dict[str, np.ndarray],
                  sub: _SubLandmarks, params: RefineParams
                  ) -> tuple[np.ndarray, Correspondences, list[str]]:
     """The handles on the fitted face, then (``params.use_warp``) the face bent smoothly
@@ -75,17 +77,28 @@ def _warped_base(model: FaceModel, fit: BaseFit, landmarks: dict[str, np.ndarray
 
 
 def _release(model: FaceModel, base: np.ndarray, handles: Correspondences,
-             params: RefineParams) -> tuple[Correspondences, list[str], list[str]]:
+             params: RefineParams, suspects: frozenset[str] = frozenset()
+             ) -> tuple[Correspondences, list[str], list[str]]:
     """Handles the smooth base still misses by more than ``params.release_mm`` contradict
-    their neighbours: not hard constraints. Returns (kept handles, released names,
-    warnings)."""
+    their neighbours: not hard constraints. With ``params.keep_landmarks`` a landmark is
+    released only when its click is in ``suspects`` (stage 1 names it), whatever the miss.
+    Returns (kept handles, released names, warnings)."""
     miss = np.linalg.norm(handles.targets - base[handles.vertex_ids], axis=1)
     keep = miss <= params.release_mm
-    released = [n for n, k in zip(handles.names, keep, strict=True) if not k]
     warnings: list[str] = []
+    if params.keep_landmarks:
+        lm = np.asarray(handles.is_landmark, bool)
+        sus = np.array([n in suspects for n in handles.names], bool)
+        keep = np.where(lm, ~sus, keep)
+        gone = [n for n, s, m in zip(handles.names, sus, lm, strict=True) if s and m]
+        if gone:
+            warnings.append(
+                f"stage 3: landmark(s) {', '.join(gone)} not held on the mesh: stage 1 names "
+                "their click(s) as suspect; check those clicks")
+    released = [n for n, k in zip(handles.names, keep, strict=True) if not k]
     bad_lm = [f"{n} ({d:.1f} mm)" for n, d, k, lm in
               zip(handles.names, miss, keep, handles.is_landmark, strict=True) if lm and not k]
-    if bad_lm:
+    if bad_lm and not params.keep_landmarks:
         warnings.append(
             f"stage 3: landmark(s) {', '.join(bad_lm)} disagree with a smooth deformation of "
             f"the '{model.name}' face and are not hard constraints; check those clicks (or "
@@ -98,6 +111,93 @@ def _release(model: FaceModel, base: np.ndarray, handles: Correspondences,
             f"of the '{model.name}' face by more than {params.release_mm:g} mm; the face "
             "model does not suit this nose well (or the boundary curves are off)")
     return (handles.subset(keep) if released else handles), released, warnings
+
+
+def slide_far_landmarks(model: FaceModel, base: np.ndarray, handles: Correspondences,
+                        params: RefineParams, suspects: frozenset[str] = frozenset()
+                        ) -> tuple[Correspondences, list[str]]:
+    """Landmark handles whose model vertex the smooth base still misses by more than
+    ``params.release_mm`` moved to the base vertex nearest their target
+    (``params.slide_landmarks``; stage-1 suspects are left to :func:`_release`).
+
+    Such a miss is mostly along the skin: the model puts the landmark elsewhere on a nose
+    it cannot reach (the ICT int sits 7-8 mm from a real face's), while the smooth base
+    passes close to the click itself. Held at the model vertex, ARAP would drag the skin
+    sideways by the whole miss and crumple it; held at the nearest vertex, it moves the
+    skin only by the surface's own distance from the click, and the final mesh still
+    passes through it. A vertex already holding another handle is not taken.
+
+    Returns:
+        (handles, names of the moved landmarks).
+    """
+    if not params.slide_landmarks or not len(handles.vertex_ids):
+        return handles, []
+    miss = np.linalg.norm(handles.targets - base[handles.vertex_ids], axis=1)
+    far = [i for i, (n, lm) in enumerate(zip(handles.names, handles.is_landmark, strict=True))
+           if lm and n not in suspects and miss[i] > params.release_mm]
+    if not far:
+        return handles, []
+    skin = np.unique(np.asarray(model.faces, np.int64))
+    tree = cKDTree(base[skin])
+    ids = handles.vertex_ids.copy()
+    taken = set(ids.tolist())
+    moved: list[str] = []
+    for i in far:
+        j = int(skin[tree.query(handles.targets[i])[1]])
+        if j in taken:
+            continue
+        taken.discard(int(ids[i]))
+        taken.add(j)
+        ids[i] = j
+        moved.append(handles.names[i])
+    return Correspondences(ids, handles.targets, handles.names, handles.is_landmark), moved
+
+
+LANDMARK_TOLERANCE_MM = 0.2
+"""An accepted landmark ends within max(this, its stated uncertainty) of the mesh
+(issue 11)."""
+
+
+def landmark_tolerances(reconstruction: Reconstruction) -> dict[str, float]:
+    """Id -> how close (mm) the mesh must pass to each landmark: max(0.2 mm, its stated
+    uncertainty ``extra.landmark_uncertainty_mm``; 0.2 mm where none is stated)."""
+    unc = reconstruction.extra.get("landmark_uncertainty_mm") or {}
+    out = {}
+    for k in reconstruction.landmarks or {}:
+        u = unc.get(k) if isinstance(unc, dict) else None
+        ok = isinstance(u, (int, float)) and np.isfinite(u)
+        out[k] = max(LANDMARK_TOLERANCE_MM, float(u) if ok else 0.0)  # type: ignore[arg-type]
+    return out
+
+
+def surface_distances(V: np.ndarray, F: np.ndarray, P: np.ndarray) -> np.ndarray:
+    """(k,) distance (mm) from each point of ``P`` (k, 3) to the mesh (V, F)."""
+    if not len(P):
+        return np.zeros(0)
+    d2 = igl.point_mesh_squared_distance(np.ascontiguousarray(P, np.float64),
+                                         np.ascontiguousarray(V, np.float64),
+                                         np.ascontiguousarray(F, np.int64))[0]
+    return np.sqrt(np.asarray(d2, float))
+
+
+def _carried(handles: Correspondences, slid: list[str], V: np.ndarray, F: np.ndarray,
+             tol: dict[str, float]) -> np.ndarray:
+    """(H,) bool: the slid landmark handles the surface (V, F) already passes within
+    their tolerance of (the smooth warp carries them; no hard ARAP handle needed)."""
+    idx = [i for i, n in enumerate(handles.names) if n in slid and handles.is_landmark[i]]
+    out = np.zeros(len(handles.names), bool)
+    if idx:
+        d = surface_distances(V, F, handles.targets[idx])
+        out[idx] = d <= np.array([tol.get(handles.names[i], LANDMARK_TOLERANCE_MM)
+                                  for i in idx])
+    return out
+
+
+def _suspect_landmarks(reconstruction: Reconstruction) -> frozenset[str]:
+    """Landmark ids whose click stage 1 names as suspect (``extra.suspect_clicks``)."""
+    sus = reconstruction.extra.get("suspect_clicks") or []
+    return frozenset(str(s["landmark"]) for s in sus
+                     if isinstance(s, dict) and "landmark" in s)
 
 
 def _deform(model: FaceModel, base: np.ndarray, region: np.ndarray, handles: Correspondences,
@@ -143,21 +243,37 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
     """
     params = params or RefineParams()
     landmarks = dict(reconstruction.landmarks or {})
-    sub = _sublandmarks(reconstruction)
+    sub = sublandmarks(reconstruction)
     t0 = time.perf_counter()
     fit = fit_face_model(model, landmarks, params, *sub)
     t1 = time.perf_counter()
-    base, handles, cw = _warped_base(model, fit, landmarks, sub, params)
+    base, handles, cw = warped_base(model, fit, landmarks, sub, params)
     t2 = time.perf_counter()
-    handles, released, rw = _release(model, base, handles, params)
-    region = deform_region(base, model.faces, model.nose_vertices, handles.vertex_ids,
+    suspects = _suspect_landmarks(reconstruction)
+    handles, slid = slide_far_landmarks(model, base, handles, params, suspects)
+    handles, released, rw = _release(model, base, handles, params, suspects)
+    F = np.asarray(model.faces, np.int64)
+    tol = landmark_tolerances(reconstruction)
+    carried = _carried(handles, slid, base, F, tol) if params.warp_carries_landmarks \
+        else np.zeros(len(handles.names), bool)
+    held = handles.subset(~carried) if carried.any() else handles
+    region = deform_region(base, model.faces, model.nose_vertices, held.vertex_ids,
                            params.handle_clearance_mm)
     seconds = {"fit": t1 - t0, "warp": t2 - t1, "correspondences": time.perf_counter() - t2}
-    V, region, deformer, report = _deform(model, base, region, handles, params, seconds)
+    V, region, deformer, report = _deform(model, base, region, held, params, seconds)
+    if carried.any():
+        # ARAP moved the skin under a carried landmark beyond its tolerance: hold it too
+        lost = carried & ~_carried(handles, slid, V, F, tol)
+        if lost.any():
+            held = handles.subset(~(carried & ~lost))
+            region = deform_region(base, model.faces, model.nose_vertices, held.vertex_ids,
+                                   params.handle_clearance_mm)
+            V, region, deformer, report = _deform(model, base, region, held, params,
+                                                  seconds)
+    handles = held
     nose = np.asarray(model.nose_vertices, np.int64)
     in_nose = np.zeros(len(V), bool)
     in_nose[nose] = True
-    F = np.asarray(model.faces, np.int64)
     return RefineResult(V=V, F=F, nose_vertex_ids=nose, nose_faces=F[in_nose[F].all(1)],
                         region_vertex_ids=region, base_V=base,
                         coefficients=fit.coefficients, fit=fit, handles=handles,

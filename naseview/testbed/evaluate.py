@@ -55,6 +55,7 @@ from naseview.stage2_curves.metrics import (
     boundary_errors,
     px_per_mm_from_truth,
 )
+from naseview.testbed.regions import error_map_png, region_errors, regions_summary
 from naseview.testbed.surface import ablation, nose_surface_samples, surface_error
 
 PAPER_TABLE1_MEAN_MM: dict[str, float] = {
@@ -147,6 +148,8 @@ class CaseRun:
     truth: Reconstruction
     result: PipelineResult
     stages: tuple[int, ...]
+    maps_dir: Path | None = None
+    ablate: bool = True
 
 
 @dataclass(frozen=True)
@@ -310,7 +313,13 @@ def surface_case(run: CaseRun) -> dict[str, Any]:
     samples = nose_surface_samples(tV, tF, run.truth.landmarks)
     out: dict[str, Any] = {"pipeline": surface_error(tV, tF, run.truth.landmarks, refined.V,
                                                      refined.F, rec.landmarks, samples=samples)}
-    if refined.model is not None:
+    out["regions"] = region_errors(tV, tF, run.truth.landmarks, refined.V, refined.F,
+                                   rec.landmarks)
+    if run.maps_dir is not None:
+        png = Path(run.maps_dir) / f"{run.case_dir.name}-surface-error.png"
+        out["map_png"] = str(error_map_png(png, tV, tF, run.truth.landmarks, refined.V,
+                                           refined.F, rec.landmarks, title=run.case.id))
+    if refined.model is not None and run.ablate:
         out["ablation"] = ablation(refined.model, rec, tV, tF, run.truth.landmarks,
                                    samples=samples)
     return out
@@ -324,14 +333,20 @@ def _surface_rows(case: dict[str, Any]) -> dict[str, Any]:
 def _surface_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
     per_case = [_surface_rows(c) for c in cases if c]
     rows = list(per_case[0]) if per_case else []
-    return {row: {k: mean_ci95(r[row][k] for r in per_case if row in r)
-                  for k in ("mean_mm", "p95_mm")} for row in rows}
+    out: dict[str, Any] = {row: {k: mean_ci95(r[row][k] for r in per_case if row in r)
+                                 for k in ("mean_mm", "p95_mm")} for row in rows}
+    regions = regions_summary([c["regions"] for c in cases if c and "regions" in c])
+    if regions:
+        out["regions"] = regions
+    return out
 
 
 def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
                     ids: list[str]) -> list[str]:
     lines = [f"{'variant':<16}{'mean mm':>9}{'95% CI':>15}{'p95 mm':>9}"]
     for row, s in summ.items():
+        if row == "regions":
+            continue
         m, p = s["mean_mm"], s["p95_mm"]
         ci = f"{_fmt(m['ci_low'])}-{_fmt(m['ci_high'])}"
         lines.append(f"{row:<16}{_fmt(m['mean']):>9}{ci:>15}{_fmt(p['mean']):>9}")
@@ -339,6 +354,13 @@ def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
                  "ARAP with the 21 landmarks / all ad-landmarks; arap76+smooth = + cotangent "
                  "smoothing. fit+warp = fit bent smoothly to the ad-landmarks; naseview = "
                  "the pipeline, -all76 with every sub-landmark (ABLATION_ROWS)")
+    if "regions" in summ:
+        lines += ["", f"{'region (pipeline)':<20}{'mean mm':>9}{'p95 mm':>9}{'area %':>8}"]
+        for name, r in summ["regions"].items():
+            lines.append(f"{name:<20}{_fmt(r['mean_mm']):>9}{_fmt(r['p95_mm']):>9}"
+                         f"{100 * r['fraction']:>8.1f}")
+        lines.append("regions from the truth landmarks (naseview.testbed.regions); the "
+                     "headline figure leaves out the nostril interior")
     return lines
 
 
@@ -379,7 +401,8 @@ class _CaseFailed(Exception):
 
 
 def _evaluate_case(d: Path, model: FaceModel | str | None, stages: tuple[int, ...],
-                   params: PipelineParams | None) -> tuple[dict[str, Any], PipelineResult]:
+                   params: PipelineParams | None, maps_dir: Path | None = None,
+                   ablate: bool = True) -> tuple[dict[str, Any], PipelineResult]:
     """The pipeline on one case directory and every section of ``stages`` on its result.
 
     Raises:
@@ -394,7 +417,7 @@ def _evaluate_case(d: Path, model: FaceModel | str | None, stages: tuple[int, ..
         result = reconstruct(case, model=model, stages=stages, params=params)
     except NaseviewError as e:
         raise _CaseFailed(case.id, d, e) from e
-    run = CaseRun(d, case, truth, result, stages)
+    run = CaseRun(d, case, truth, result, stages, maps_dir, ablate)
     info = _case_info(run)
     for sec in SECTIONS:
         if sec.stage in stages:
@@ -419,7 +442,9 @@ def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]],
                    model: FaceModel | str | None = None,
                    stages: Iterable[int] | str = (1, 2, 3),
                    params: PipelineParams | None = None,
-                   progress: Callable[[str], object] | None = None) -> dict[str, Any]:
+                   progress: Callable[[str], object] | None = None,
+                   maps_dir: str | os.PathLike[str] | None = None,
+                   ablate: bool = True) -> dict[str, Any]:
     """Run the pipeline on synthetic cases and measure every section against the truth.
 
     Args:
@@ -427,6 +452,10 @@ def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]],
         model, stages, params: passed to :func:`naseview.pipeline.reconstruct` (a model
             name is loaded once, when stage 3 runs).
         progress: called with one line per finished case.
+        maps_dir: write each case's error colour map
+            (:func:`naseview.testbed.regions.error_map_png`) into this folder as
+            ``<case folder>-surface-error.png``.
+        ablate: also run the stage-3 ablation rows (``surface.ablation``).
     Returns:
         ``{"cases": [per-case dict], "failed": [{"case", "error"}], "summary":
         {section key: summary}, "stages": [...]}`` (JSON-ready, NaN for missing values).
@@ -440,7 +469,8 @@ def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]],
     failed: list[dict[str, str]] = []
     for d in map(Path, case_dirs):
         try:
-            info, result = _evaluate_case(d, model, stages, params)
+            info, result = _evaluate_case(d, model, stages, params,
+                                          None if maps_dir is None else Path(maps_dir), ablate)
         except _CaseFailed as e:
             failed.append(e.record)
             if progress:
@@ -492,9 +522,16 @@ def _json_ready(obj: Any) -> Any:
 def evaluate_command(args: argparse.Namespace) -> int:
     """``naseview evaluate CASE_DIRS... [--json] [--stages 1,2,3] [--model M]``."""
     quiet = bool(getattr(args, "json", False))
+    maps = getattr(args, "maps", None)
+    if maps is not None:
+        try:
+            Path(maps).mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise NaseviewError(f"{maps}: cannot create the --maps folder ({e})") from None
     report = evaluate_cases(args.case_dirs, model=getattr(args, "model", None),
                             stages=getattr(args, "stages", "1,2,3"),
-                            progress=None if quiet else (lambda s: print(s, flush=True)))
+                            progress=None if quiet else (lambda s: print(s, flush=True)),
+                            maps_dir=maps, ablate=not getattr(args, "no_ablation", False))
     if quiet:
         print(json.dumps(_json_ready(report), indent=1))
     else:

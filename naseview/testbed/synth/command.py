@@ -7,6 +7,7 @@ from pathlib import Path
 
 from naseview.errors import NaseviewError
 from naseview.facemodel import load_face_model
+from naseview.testbed.synth.scan import read_scan, synthesize_scan_case
 from naseview.testbed.synth.synthesize import synthesize_case
 
 ICT_CREDIT = "ICT Face Model (USC Institute for Creative Technologies, MIT)"
@@ -14,8 +15,15 @@ ICT_CREDIT = "ICT Face Model (USC Institute for Creative Technologies, MIT)"
 
 def synth_command(args: argparse.Namespace) -> int:
     """One case into ``out_dir``, or ``--batch N`` cases ``out_dir/case-000..`` with seeds
-    ``seed, seed + 1, ...``; prints each case directory (and the ICT credit)."""
-    model = load_face_model(args.model)
+    ``seed, seed + 1, ...``; prints each case directory (and the ICT credit).
+
+    With ``--scan MESH --landmarks FILE [--texture IMAGE]`` the face is that scan (SPEC §8,
+    :mod:`~naseview.testbed.synth.scan`) instead of a random face-model identity."""
+    if getattr(args, "scan", None) is not None:
+        return _scan_command(args)
+    if getattr(args, "landmarks", None) is not None or getattr(args, "texture", None):
+        raise NaseviewError("--landmarks and --texture go with --scan MESH")
+    model = load_face_model(args.model or "ict")
     size = int(args.size)
     noise_px = float(args.noise_px)
     image_noise = float(args.image_noise)
@@ -34,4 +42,26 @@ def synth_command(args: argparse.Namespace) -> int:
         print(path.parent)
     if model.name == "ict" or "ICT" in model.credit:
         print(f"face model: {ICT_CREDIT}")
+    return 0
+
+
+def _scan_command(args: argparse.Namespace) -> int:
+    """``naseview synth OUT --scan MESH --landmarks FILE [--texture IMAGE] ...``."""
+    if getattr(args, "model", None) is not None:
+        raise NaseviewError("--model and --scan exclude each other: the scan is the face")
+    if getattr(args, "landmarks", None) is None:
+        raise NaseviewError("--scan needs --landmarks LANDMARKS.json (SPEC §8: the 21 "
+                            "landmarks and both add helpers in the SPEC frame)")
+    batch = int(args.batch or 0)
+    if batch < 0:
+        raise NaseviewError("--batch must be >= 0")
+    scan = read_scan(args.scan, args.landmarks, getattr(args, "texture", None))
+    out = Path(args.out_dir)
+    seeds = [int(args.seed) + i for i in range(batch)] if batch else [int(args.seed)]
+    for i, seed in enumerate(seeds):
+        path = synthesize_scan_case(out / f"case-{i:03d}" if batch else out, scan, seed,
+                                    float(args.noise_px), int(args.size),
+                                    float(args.image_noise))
+        print(path.parent)
+    print(f"scan: {scan.source['credit']}")
     return 0

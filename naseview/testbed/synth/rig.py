@@ -30,6 +30,7 @@ Example
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -61,10 +62,18 @@ def sample_identity(model: FaceModel, rng: np.random.Generator) -> tuple[np.ndar
     return V, w
 
 
-def view_aim(V: np.ndarray, model: FaceModel, view: str) -> np.ndarray:
+Points = Mapping[str, np.ndarray]
+"""Landmark id -> (3,) position (mm, SPEC frame): all a rig needs of a face."""
+
+
+def landmark_points(V: np.ndarray, model: FaceModel) -> dict[str, np.ndarray]:
+    """Landmark id -> (3,) position of a face-model mesh ``V`` (its landmark vertices)."""
+    return {k: V[i] for k, i in model.landmark_vertices.items()}
+
+
+def view_aim(points: Points, view: str) -> np.ndarray:
     """(3,) aim point of a view: the bounding-box centre of the landmarks marked in it."""
-    P = np.array([V[model.landmark_vertices[i]] for i in VIEW_LANDMARKS[view]
-                  if i in model.landmark_vertices])
+    P = np.array([points[i] for i in VIEW_LANDMARKS[view] if i in points])
     return 0.5 * (P.min(axis=0) + P.max(axis=0))
 
 
@@ -82,12 +91,11 @@ def _nominal_directions(elev: float) -> dict[str, np.ndarray]:
     }
 
 
-def _draw_views(V: np.ndarray, model: FaceModel, rng: np.random.Generator,
-                base: float) -> dict[str, ViewDraw]:
+def _draw_views(points: Points, rng: np.random.Generator, base: float) -> dict[str, ViewDraw]:
     """Per view, in :data:`~naseview.landmarks.VIEWS` order: angles, roll, distance, aim."""
     draws = {view: (rng.uniform(-8.0, 8.0, size=2), float(rng.uniform(-6.0, 6.0)),
                     base * float(rng.uniform(0.85, 1.15)),
-                    view_aim(V, model, view) + rng.uniform(-4.0, 4.0, size=3))
+                    view_aim(points, view) + rng.uniform(-4.0, 4.0, size=3))
              for view in VIEWS}
     # profile photos: a photographer may stand up to 8 degrees in front of the true
     # profile but hardly behind it (then the brow hides g): yaw towards the face in
@@ -118,10 +126,9 @@ def _draw_info(draw: ViewDraw) -> dict[str, Any]:
             "distance_mm": dist, "target_mm": target.tolist()}
 
 
-def _well_inside(cam: Camera, V: np.ndarray, model: FaceModel, view: str, size: int) -> bool:
+def _well_inside(cam: Camera, points: Points, view: str, size: int) -> bool:
     """Every landmark marked in ``view`` projects at least 8 % of the size from a border."""
-    lv = model.landmark_vertices
-    uv = cam.project(np.array([V[lv[i]] for i in VIEW_LANDMARKS[view] if i in lv]))
+    uv = cam.project(np.array([points[i] for i in VIEW_LANDMARKS[view] if i in points]))
     return bool(np.all((uv > 0.08 * size) & (uv < 0.92 * size)))
 
 
@@ -137,13 +144,27 @@ def sample_rig(V: np.ndarray, model: FaceModel, rng: np.random.Generator,
     Returns:
         ``{view: Camera}`` and a JSON-able description of the draw.
     """
-    lv = model.landmark_vertices
-    alar = float(np.linalg.norm(V[lv["al_l"]] - V[lv["al_r"]]))
+    return sample_rig_points(landmark_points(V, model), rng, size)
+
+
+def sample_rig_points(points: Points, rng: np.random.Generator, size: int = DEFAULT_SIZE
+                      ) -> tuple[dict[str, Camera], dict[str, Any]]:
+    """:func:`sample_rig` for any face given by its landmarks (e.g. a scan, SPEC §8).
+
+    Args:
+        points: landmark id -> (3,) position, SPEC frame, mm (at least al_l, al_r and
+            the landmarks of each view).
+        rng: random stream of the rig.
+        size: image width = height (px).
+    Returns:
+        ``{view: Camera}`` and a JSON-able description of the draw.
+    """
+    alar = float(np.linalg.norm(np.asarray(points["al_l"]) - np.asarray(points["al_r"])))
     base = float(rng.uniform(300.0, 450.0))
     frac = float(rng.uniform(0.26, 0.34))
     elev = float(rng.uniform(45.0, 60.0))
     nominal = _nominal_directions(elev)
-    draws = _draw_views(V, model, rng, base)
+    draws = _draw_views(points, rng, base)
     # one focal length (one phone); zoom out until every landmark is well inside each photo
     for _ in range(20):
         focal = frac * size * base / alar
@@ -151,7 +172,7 @@ def sample_rig(V: np.ndarray, model: FaceModel, rng: np.random.Generator,
         info: dict[str, Any] = {"base_distance_mm": base, "alar_fraction": frac,
                                 "focal_px": focal, "bottom_elevation_deg": elev,
                                 "views": {view: _draw_info(draws[view]) for view in VIEWS}}
-        if all(_well_inside(cams[view], V, model, view, size) for view in VIEWS):
+        if all(_well_inside(cams[view], points, view, size) for view in VIEWS):
             break
         frac *= 0.93
     return cams, info

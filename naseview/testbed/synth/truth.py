@@ -77,5 +77,7 @@ def helper_points(model: FaceModel, V: np.ndarray) -> dict[str, np.ndarray]:
 
 def helper_position(P3: np.ndarray, camera: Camera) -> np.ndarray:
     """(3,) point of the piece P3 (K, 3) halfway along its projection in ``camera``."""
+    if len(P3) < 2:
+        return np.asarray(P3[0])
     _, i, f = arc_midpoint(camera.project(P3))
-    return P3[i] + f * (P3[i + 1] - P3[i]) if len(P3) > 1 else P3[0]
+    return np.asarray(P3[i] + f * (P3[i + 1] - P3[i]))
