@@ -7,9 +7,9 @@ was expected; the rest of naseview can then trust a :class:`Case`.
 
 Example
 -------
->>> case = read_case("assets/demo-case")              # doctest: +SKIP
->>> case.views["front"].landmarks["prn"]              # doctest: +SKIP
-array([511.2, 610. ])
+    case = read_case("assets/demo-case")
+    case.views["front"].landmarks["prn"]
+    # -> array([511.2, 610. ])
 """
 
 from __future__ import annotations

@@ -3,9 +3,14 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from helpers import ict_baseline
+
+from naseview.editing.baseline import Baseline
+from naseview.editing.solver import NoseEditSolver
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_ICT = REPO.parent / "shared" / "data" / "ict-face-model"
@@ -21,3 +26,23 @@ def ict_dir() -> Path:
     assert (SHARED_ICT / "ict_face_light.npz").is_file(), (
         f"{SHARED_ICT} not found; the tests need ../shared beside the repository")
     return SHARED_ICT
+
+
+@pytest.fixture()
+def data_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """An empty user data dir, with NASEVIEW_ICT_MODEL unset."""
+    d = tmp_path / "data"
+    monkeypatch.setenv("NASEVIEW_DATA_DIR", str(d))
+    monkeypatch.delenv("NASEVIEW_ICT_MODEL", raising=False)
+    return d
+
+
+@pytest.fixture(scope="module")
+def baseline() -> Baseline:
+    """The ICT mean face as an editable baseline (editing tests)."""
+    return ict_baseline()
+
+
+@pytest.fixture(scope="module")
+def real_solver_factory(baseline: Baseline) -> Callable[[], NoseEditSolver]:
+    return lambda: NoseEditSolver(baseline)

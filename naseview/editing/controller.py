@@ -14,10 +14,10 @@ never solves on the caller's thread.
 
 Example
 -------
->>> ctl = EditController(baseline, solver)                     # doctest: +SKIP
->>> ctl.begin_drag("prn"); ctl.drag_to("prn", p + [0, 2, 0]); ctl.end_drag()  # doctest: +SKIP
->>> ctl.wait_idle(); ctl.simulation.V                         # doctest: +SKIP
->>> ctl.undo()                                                 # doctest: +SKIP
+    ctl = EditController(baseline, solver)
+    ctl.begin_drag("prn"); ctl.drag_to("prn", p + [0, 2, 0]); ctl.end_drag()
+    ctl.wait_idle(); ctl.simulation.V
+    ctl.undo()
 """
 
 from __future__ import annotations

@@ -18,9 +18,9 @@ string.
 
 Example
 -------
->>> save_session("case.session.json", controller, {"case_id": "p1"})   # doctest: +SKIP
->>> s = load_session("case.session.json")                             # doctest: +SKIP
->>> EditController.from_session(s, solver)                            # doctest: +SKIP
+    save_session("case.session.json", controller, {"case_id": "p1"})
+    s = load_session("case.session.json")
+    EditController.from_session(s, solver)
 """
 
 from __future__ import annotations

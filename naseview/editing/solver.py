@@ -14,9 +14,9 @@ along by the deformed triangle. Measurements are
 
 Example
 -------
->>> solver = NoseEditSolver(baseline)                          # doctest: +SKIP
->>> out = solver({**baseline.landmarks, "prn": p + [0, 1.0, 0]})  # doctest: +SKIP
->>> out.V.shape, out.measurements["nasal_length"]              # doctest: +SKIP
+    solver = NoseEditSolver(baseline)
+    out = solver({**baseline.landmarks, "prn": p + [0, 1.0, 0]})
+    out.V.shape, out.measurements["nasal_length"]
 """
 
 from __future__ import annotations

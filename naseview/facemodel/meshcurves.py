@@ -26,8 +26,8 @@ subject's left, +y up, +z anterior, mm): the ICT model and naseview's generic fa
 
 Example
 -------
->>> paths = curve_paths(V, F, model.landmark_vertices, model.nostril_vertices)  # doctest: +SKIP
->>> V[paths["mid"]]            # (L, 3) polyline g ... sn on the mesh  # doctest: +SKIP
+    paths = curve_paths(V, F, model.landmark_vertices, model.nostril_vertices)
+    V[paths["mid"]]            # (L, 3) polyline g ... sn on the mesh
 """
 
 from __future__ import annotations

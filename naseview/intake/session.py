@@ -23,11 +23,11 @@ here):
 
 Example
 -------
->>> s = AnnotationSession.create("/tmp/in-progress/p1", case_id="p1")   # doctest: +SKIP
->>> s.add_photo("front", open("front.jpg", "rb").read())                 # doctest: +SKIP
->>> s.place("front", "g", (512.0, 300.0))                                # doctest: +SKIP
->>> s.next_target()                                                      # doctest: +SKIP
-('front', 'n')
+    s = AnnotationSession.create("/tmp/in-progress/p1", case_id="p1")
+    s.add_photo("front", open("front.jpg", "rb").read())
+    s.place("front", "g", (512.0, 300.0))
+    s.next_target()
+    # -> ('front', 'n')
 """
 
 from __future__ import annotations

@@ -13,9 +13,9 @@ nose region only (no eyes, no face outline).
 
 Example
 -------
->>> data = report_data_from_session("session.json")          # doctest: +SKIP
->>> write_report(data, "out/report.html")                    # doctest: +SKIP
-PosixPath('out/report.html')
+    data = report_data_from_session("session.json")
+    write_report(data, "out/report.html")
+    # -> PosixPath('out/report.html')
 """
 
 from naseview.report.data import DISCLAIMER, DISCLAIMER_DETAIL, ReportData

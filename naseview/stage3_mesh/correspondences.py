@@ -8,10 +8,10 @@ the matching mesh curve at the same arc-length fraction
 
 Example
 -------
->>> handles, warnings = correspondences(model, fit.vertices, rec.landmarks,
-...                                     rec.ad_landmarks, rec.ad_landmark_tags)  # doctest: +SKIP
->>> handles.vertex_ids.shape, handles.targets.shape                             # doctest: +SKIP
-((44,), (44, 3))
+    handles, warnings = correspondences(model, fit.vertices, rec.landmarks,
+                                        rec.ad_landmarks, rec.ad_landmark_tags)
+    handles.vertex_ids.shape, handles.targets.shape
+    # -> ((44,), (44, 3))
 """
 
 from __future__ import annotations

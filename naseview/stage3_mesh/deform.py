@@ -9,11 +9,11 @@ every drag. SPEC frame, mm.
 
 Example
 -------
->>> dfm = NoseDeformer(V, F, deform_region(V, F, nose_ids, handle_ids, 6.0),
-...                    handle_ids)                                      # doctest: +SKIP
->>> report = dfm.solve_report(V[handle_ids] + [0, 0, 1.0])              # doctest: +SKIP
->>> report.V.shape, report.arap_iterations                              # doctest: +SKIP
-((9409, 3), 7)
+    dfm = NoseDeformer(V, F, deform_region(V, F, nose_ids, handle_ids, 6.0),
+                       handle_ids)
+    report = dfm.solve_report(V[handle_ids] + [0, 0, 1.0])
+    report.V.shape, report.arap_iterations
+    # -> ((9409, 3), 7)
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ handles (Botsch & Sorkine 2008), on the cotangent Laplacian and Voronoi mass of
 
 Example
 -------
->>> V2 = smooth_warp(V, F, handle_ids, targets, np.ones(len(handle_ids)), 0.5,
-...                  region_ids)                                        # doctest: +SKIP
+    V2 = smooth_warp(V, F, handle_ids, targets, np.ones(len(handle_ids)), 0.5,
+                     region_ids)
 """
 
 from __future__ import annotations

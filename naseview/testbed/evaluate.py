@@ -22,8 +22,8 @@ JSON-ready. The file reads top to bottom as metrics, sections, running.
 
 Example
 -------
->>> report = evaluate_cases(["/tmp/synth/case-000"], stages=(1,))   # doctest: +SKIP
->>> print(format_report(report))                                    # doctest: +SKIP
+    report = evaluate_cases(["/tmp/synth/case-000"], stages=(1,))
+    print(format_report(report))
 """
 
 from __future__ import annotations

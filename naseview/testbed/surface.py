@@ -14,10 +14,10 @@ Used by ``naseview evaluate`` (:mod:`naseview.testbed.evaluate`) and
 
 Example
 -------
->>> S = nose_surface_samples(truth_V, truth_F, truth_landmarks)          # doctest: +SKIP
->>> surface_error(truth_V, truth_F, truth_landmarks, res.V, res.F,
-...               rec.landmarks, samples=S)["mean_mm"]                   # doctest: +SKIP
-0.35
+    S = nose_surface_samples(truth_V, truth_F, truth_landmarks)
+    surface_error(truth_V, truth_F, truth_landmarks, res.V, res.F,
+                  rec.landmarks, samples=S)["mean_mm"]
+    # -> 0.35
 """
 
 from __future__ import annotations

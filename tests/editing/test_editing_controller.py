@@ -14,21 +14,11 @@ import time
 
 import numpy as np
 import pytest
-from helpers import GaussianSolver, drag, ict_baseline, landmarks_close
+from helpers import GaussianSolver, drag, landmarks_close
 
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import MIRROR, EditController
 from naseview.editing.solver import NoseEditSolver
-
-
-@pytest.fixture(scope="module")
-def baseline() -> Baseline:
-    return ict_baseline()
-
-
-@pytest.fixture(scope="module")
-def real_solver_factory(baseline: Baseline):
-    return lambda: NoseEditSolver(baseline)
 
 
 def test_drag_moves_nose_and_undo_redo_restore_exactly(baseline, real_solver_factory):

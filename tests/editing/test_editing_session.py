@@ -6,23 +6,11 @@ import json
 
 import numpy as np
 import pytest
-from helpers import drag, ict_baseline, landmarks_close
+from helpers import drag, landmarks_close
 
-from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 from naseview.editing.session import load_session, save_session
-from naseview.editing.solver import NoseEditSolver
 from naseview.errors import NaseviewError
-
-
-@pytest.fixture(scope="module")
-def baseline() -> Baseline:
-    return ict_baseline()
-
-
-@pytest.fixture(scope="module")
-def real_solver_factory(baseline: Baseline):
-    return lambda: NoseEditSolver(baseline)
 
 
 def test_session_round_trip_reopens_exactly(baseline, real_solver_factory, tmp_path):

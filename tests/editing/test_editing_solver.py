@@ -3,21 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
-from helpers import ict_baseline
-
-from naseview.editing.baseline import Baseline
-from naseview.editing.solver import NoseEditSolver
-
-
-@pytest.fixture(scope="module")
-def baseline() -> Baseline:
-    return ict_baseline()
-
-
-@pytest.fixture(scope="module")
-def real_solver_factory(baseline: Baseline):
-    return lambda: NoseEditSolver(baseline)
 
 
 def test_edit_solver_follows_handles_and_keeps_unedited_nose(baseline, real_solver_factory):

@@ -24,15 +24,6 @@ def ict(ict_dir: Path):
     return store.load_ict_npz(ict_dir / "ict_face_light.npz")
 
 
-@pytest.fixture()
-def data_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """An empty user data dir, with NASEVIEW_ICT_MODEL unset."""
-    d = tmp_path / "data"
-    monkeypatch.setenv("NASEVIEW_DATA_DIR", str(d))
-    monkeypatch.delenv("NASEVIEW_ICT_MODEL", raising=False)
-    return d
-
-
 def test_read_obj_polygons_corner_syntax_and_relative_ids(tmp_path: Path) -> None:
     obj = tmp_path / "m.obj"
     obj.write_text(

@@ -17,15 +17,6 @@ from naseview.facemodel import store
 from naseview.facemodel.ict import ICT_CREDIT
 
 
-@pytest.fixture()
-def data_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """An empty user data dir, with NASEVIEW_ICT_MODEL unset."""
-    d = tmp_path / "data"
-    monkeypatch.setenv("NASEVIEW_DATA_DIR", str(d))
-    monkeypatch.delenv("NASEVIEW_ICT_MODEL", raising=False)
-    return d
-
-
 def test_import_folder_with_converted_npz_copies_it(ict_dir: Path, data_dir: Path) -> None:
     path = store.import_ict(ict_dir)
     assert path == data_dir / "models" / "ict_face_light.npz"

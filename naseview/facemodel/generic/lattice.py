@@ -7,9 +7,9 @@ here, the right is its mirror image.
 
 Example
 -------
->>> P, n_outline = half_points()                                    # doctest: +SKIP
->>> P.shape[1], bool((P[:, 0] >= 0).all())                          # doctest: +SKIP
-(2, True)
+    P, n_outline = half_points()
+    P.shape[1], bool((P[:, 0] >= 0).all())
+    # -> (2, True)
 """
 
 from __future__ import annotations

@@ -7,9 +7,9 @@ then mirrored (:mod:`~naseview.facemodel.generic.triangulate`). mm, the generic 
 
 Example
 -------
->>> mesh = generic_mesh()                                              # doctest: +SKIP
->>> mesh.V.shape[1], mesh.F.shape[1]                                   # doctest: +SKIP
-(3, 3)
+    mesh = generic_mesh()
+    mesh.V.shape[1], mesh.F.shape[1]
+    # -> (3, 3)
 """
 
 from __future__ import annotations

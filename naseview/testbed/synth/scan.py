@@ -20,10 +20,10 @@ models have never seen.
 
 Example
 -------
->>> scan = read_scan("../shared/data/scans/james/james.obj",
-...                  "../shared/data/scans/james/landmarks.json")          # doctest: +SKIP
->>> synthesize_scan_case("/tmp/james-0", scan, seed=0)                   # doctest: +SKIP
-PosixPath('/tmp/james-0/case.json')
+    scan = read_scan("../shared/data/scans/james/james.obj",
+                     "../shared/data/scans/james/landmarks.json")
+    synthesize_scan_case("/tmp/james-0", scan, seed=0)
+    # -> PosixPath('/tmp/james-0/case.json')
 """
 
 from __future__ import annotations
