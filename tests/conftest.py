@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+import viser
 from helpers import ict_baseline
 
+from naseview.app.serve import NaseviewApp, demo_case_dir, start_app
 from naseview.editing.baseline import Baseline
 from naseview.editing.solver import NoseEditSolver
 
@@ -46,3 +48,13 @@ def baseline() -> Baseline:
 @pytest.fixture(scope="module")
 def real_solver_factory(baseline: Baseline) -> Callable[[], NoseEditSolver]:
     return lambda: NoseEditSolver(baseline)
+
+
+@pytest.fixture(scope="module")
+def served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
+    """``naseview serve`` of the demo case (photos, mesh, landmarks), as the CLI starts it."""
+    server, app = start_app(demo_case_dir(), host="127.0.0.1", port=0, model="generic")
+    assert app.wait_ready(120), "the demo case did not open"
+    yield server, app
+    app.close()
+    server.stop()

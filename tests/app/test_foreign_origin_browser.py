@@ -25,8 +25,6 @@ import pytest
 import viser
 from helpers import CHROMIUM, CHROMIUM_FLAGS, browser_or_skip, wait_for
 
-from naseview.app.serve import NaseviewApp, demo_case_dir, start_app
-
 pytestmark = pytest.mark.browser
 
 
@@ -57,15 +55,6 @@ def browser_tools() -> Any:
     from playwright import sync_api  # after the check: a missing package fails in CI
 
     return sync_api
-
-
-@pytest.fixture(scope="module")
-def served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
-    server, app = start_app(demo_case_dir(), host="127.0.0.1", port=0, model="generic")
-    assert app.wait_ready(120), "the demo case did not open"
-    yield server, app
-    app.close()
-    server.stop()
 
 
 @pytest.fixture()

@@ -21,7 +21,6 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import msgspec
@@ -32,21 +31,11 @@ import websockets.exceptions
 import websockets.sync.client
 
 from naseview.app.guard import OriginPolicy
-from naseview.app.serve import NaseviewApp, demo_case_dir, start_app
+from naseview.app.serve import start_app
 from naseview.errors import NaseviewError
 
 REPO = Path(__file__).resolve().parents[2]
 SUBPROTOCOL = f"viser-v{viser.__version__}"
-
-
-@pytest.fixture(scope="module")
-def served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
-    """``naseview serve`` of the demo case (photos, mesh, landmarks), as the CLI starts it."""
-    server, app = start_app(demo_case_dir(), host="127.0.0.1", port=0, model="generic")
-    assert app.wait_ready(120), "the demo case did not open"
-    yield server, app
-    app.close()
-    server.stop()
 
 
 def get(port: int, host_header: str, origin: str | None = None,
