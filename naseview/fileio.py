@@ -408,6 +408,12 @@ def resolve_stored_path(value: object, folder: str | os.PathLike[str],
         raise NaseviewError(f"{where}: key {key!r}: expected a path relative to "
                             f"{Path(folder).name or folder}")
     p = Path(value)
+    inner = list(p.parts)
+    while inner and inner[0] == "..":      # leading '..' is checked against ``root`` below
+        inner.pop(0)
+    if ".." in inner:
+        raise NaseviewError(f"{where}: key {key!r}: {value!r} goes down and back up with "
+                            "'..'; write the path without it")
     if p.is_absolute() and not allow_absolute:
         raise NaseviewError(f"{where}: key {key!r}: {value!r} is an absolute path; paths "
                             "must be relative to the file's folder")

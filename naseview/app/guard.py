@@ -155,7 +155,12 @@ def _guarded(policy: OriginPolicy, inner: ProcessRequest | None) -> ProcessReque
     def process_request(connection: ServerConnection, request: Request) -> Response | None:
         active = policy if policy.port else replace(policy,
                                                     port=int(connection.local_address[1]))
-        why = active.refusal(request.headers.get("Host"), request.headers.get("Origin"))
+        hosts = request.headers.get_all("Host")
+        origins = request.headers.get_all("Origin")
+        if len(hosts) != 1 or len(origins) > 1:   # a smuggling attempt: never guess
+            why: str | None = "the request repeats its Host or Origin header"
+        else:
+            why = active.refusal(hosts[0], origins[0] if origins else None)
         if why is not None:
             log.warning("naseview: refused a request for %s: %s", request.path, why)
             response = connection.respond(

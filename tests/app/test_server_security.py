@@ -298,3 +298,20 @@ def test_new_client_after_refusals_still_connects(served) -> None:
         assert get(port, f"evil.example.com:{port}")[0] == 403
     with ws_connect(port, f"http://localhost:{port}", f"localhost:{port}") as ws:
         assert received_bytes(ws, 10, enough=100_000) >= 100_000
+
+
+def test_repeated_host_or_origin_header_is_refused_not_a_crash(served) -> None:
+    """Two Host (or Origin) headers, one of them foreign: a clean 403, never a 500."""
+    server, _ = served
+    port = server.get_port()
+    for extra in ([("Host", f"127.0.0.1:{port}"), ("Host", f"evil.example.com:{port}")],
+                  [("Host", f"127.0.0.1:{port}"), ("Origin", f"http://127.0.0.1:{port}"),
+                   ("Origin", "http://evil.example.com")]):
+        with socket.create_connection(("127.0.0.1", port), timeout=10) as s:
+            head = "".join(f"{k}: {v}\r\n" for k, v in extra)
+            s.sendall(f"GET / HTTP/1.1\r\n{head}Connection: close\r\n\r\n".encode())
+            reply = b""
+            while chunk := s.recv(65536):
+                reply += chunk
+        assert reply.startswith(b"HTTP/1.1 403"), reply[:80]
+        assert b"<html" not in reply.lower()

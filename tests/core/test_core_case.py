@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import write_projected_case
 
 from naseview.case import read_case, write_case
 from naseview.cli import main
@@ -162,3 +163,13 @@ def test_case_json_key_twice_is_named_and_bom_is_accepted(tmp_path: Path) -> Non
     with pytest.raises(NaseviewError) as e:
         read_case(root)
     assert "case.json" in str(e.value) and "'prn'" in str(e.value)
+
+
+def test_image_path_that_goes_down_and_back_up_is_named_before_any_work(tmp_path: Path):
+    """``left.jpg/../left.jpg`` names the key at reading, not a misleading "not found"."""
+    case_dir = write_projected_case(tmp_path / "case", seed=83)
+    obj = json.loads((case_dir / "case.json").read_text())
+    obj["views"]["left"]["image"] = f"{obj['views']['left']['image']}/../x"
+    (case_dir / "case.json").write_text(json.dumps(obj))
+    with pytest.raises(NaseviewError, match=r"views\.left\.image.*'\.\.'"):
+        read_case(case_dir)
