@@ -361,6 +361,6 @@ def output_case_dir(out_dir: str | os.PathLike[str], rec: Reconstruction | None
     if found != digest:
         raise NaseviewError(f"{where}: key {CASE_DIR_KEY!r}: {value!r} lies outside the output "
                             "folder and is not the case this output was reconstructed from "
-                            "(its case.json differs); re-run `naseview reconstruct` or "
-                            "pass the case folder")
+                            "(its case.json is missing or differs); re-run `naseview "
+                            "reconstruct` or pass the case folder")
     return case_dir
