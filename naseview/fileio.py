@@ -217,17 +217,23 @@ def parse_json(data: bytes, where: str | os.PathLike[str]) -> dict[str, Any]:
     return obj
 
 
+def read_bytes(path: str | os.PathLike[str], what: str = "file") -> bytes:
+    """The bytes of ``path``, or a one-line :class:`NaseviewError` (``<path>: <what> not
+    found`` / ``cannot read``)."""
+    path = Path(path)
+    if not path.is_file():
+        raise NaseviewError(f"{path}: {what} not found")
+    try:
+        return path.read_bytes()
+    except OSError as e:
+        raise NaseviewError(f"{path}: cannot read ({one_line(e.strerror or e)})") from None
+
+
 def read_json(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read a JSON object, or raise :class:`NaseviewError` naming the file and the problem
     (see :func:`parse_json`)."""
     path = Path(path)
-    if not path.is_file():
-        raise NaseviewError(f"{path}: file not found")
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise NaseviewError(f"{path}: cannot read ({one_line(e.strerror or e)})") from None
-    return parse_json(data, path)
+    return parse_json(read_bytes(path), path)
 
 
 # photos
@@ -331,12 +337,7 @@ def read_image(path: str | os.PathLike[str]) -> np.ndarray:
             :data:`MAX_IMAGE_PIXELS`, damaged or truncated.
     """
     path = Path(path)
-    if not path.is_file():
-        raise NaseviewError(f"{path}: image file not found")
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise NaseviewError(f"{path}: cannot read ({one_line(e.strerror or e)})") from None
+    data = read_bytes(path, "image file")
     if not data:
         raise NaseviewError(f"{path}: the file is empty; {_NOT_AN_IMAGE}")
     return decode_image(data, path)

@@ -25,7 +25,7 @@ from typing import NamedTuple
 import numpy as np
 
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_bytes, one_line
+from naseview.fileio import atomic_write_bytes, one_line, read_bytes
 
 MESH_FORMATS: tuple[str, ...] = ("ply", "stl", "obj", "glb")
 """File types :func:`export_mesh` writes and :func:`read_mesh` reads (by suffix)."""
@@ -121,13 +121,7 @@ def read_mesh(path: str | os.PathLike[str]) -> tuple[np.ndarray, np.ndarray]:
     """
     path = Path(path)
     ext = _suffix(path)
-    if not path.is_file():
-        raise NaseviewError(f"{path}: mesh file not found")
-    try:
-        data = path.read_bytes()
-    except OSError as e:
-        raise NaseviewError(f"{path}: cannot read ({one_line(e.strerror or e)})") from None
-    return mesh_from_bytes(data, ext, path)
+    return mesh_from_bytes(read_bytes(path, "mesh file"), ext, path)
 
 
 def mesh_from_bytes(data: bytes, file_type: str, where: str | os.PathLike[str]
