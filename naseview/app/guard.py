@@ -15,7 +15,8 @@ checked first by :class:`OriginPolicy`:
 
 Anything else gets ``403 Forbidden`` before viser sees it. Every page it does serve says
 that no other site may frame it, and that it loads nothing from anywhere but itself
-(:data:`PAGE_HEADERS`). :func:`refuse_share` disables viser's share tunnel on the server
+(:data:`PAGE_HEADERS`), and the page is titled naseview (:func:`retitled`), not "Viser".
+:func:`refuse_share` disables viser's share tunnel on the server
 side, whatever a client sends: a raw ``ShareUrlRequest`` message is logged and dropped,
 never forwarded to the public relay.
 
@@ -37,9 +38,12 @@ True
 from __future__ import annotations
 
 import errno
+import gzip
+import html
 import http
 import ipaddress
 import logging
+import re
 import socket
 import threading
 from collections.abc import Callable, Iterator
@@ -76,7 +80,39 @@ PAGE_HEADERS: dict[str, str] = {
 }
 """Headers added to every HTTP response the server sends."""
 
+PAGE_TITLE = "naseview"
+"""The browser tab's title of every page the server serves."""
+
 _PATCH_LOCK = threading.Lock()
+
+
+def retitled(response: Response, title: str = PAGE_TITLE) -> Response:
+    """``response`` with the ``<title>`` of an HTML page replaced by ``title``.
+
+    viser's page is titled "Viser"; the tab (and the window list, and a printed page's
+    header) should say what the surgeon opened. Other responses are returned as they are;
+    a gzip-encoded page is decoded, edited and encoded again, Content-Length updated.
+
+    >>> from websockets.datastructures import Headers
+    >>> page = Response(200, "OK", Headers({"Content-Type": "text/html; charset=utf-8"}),
+    ...                 b"<head><title>Viser</title></head>")
+    >>> retitled(page).body
+    b'<head><title>naseview</title></head>'
+    """
+    if not response.headers.get("Content-Type", "").startswith("text/html"):
+        return response
+    gzipped = response.headers.get("Content-Encoding") == "gzip"
+    body = gzip.decompress(response.body) if gzipped else response.body
+    new = re.sub(rb"<title>[^<]*</title>", b"<title>" + html.escape(title).encode() + b"</title>",
+                 body, count=1)
+    if new == body:
+        return response
+    payload = gzip.compress(new) if gzipped else new
+    headers = response.headers.copy()
+    if "Content-Length" in headers:
+        del headers["Content-Length"]
+        headers["Content-Length"] = str(len(payload))
+    return replace(response, headers=headers, body=payload)
 
 
 def _split_host(value: str) -> tuple[str, int | None]:
@@ -170,7 +206,7 @@ def _guarded(policy: OriginPolicy, inner: ProcessRequest | None) -> ProcessReque
             answer = inner(connection, request) if inner is not None else None
             if answer is None:            # a websocket handshake of this server's page
                 return None
-            response = answer
+            response = retitled(answer)
         for name, value in PAGE_HEADERS.items():
             response.headers[name] = value
         return response
