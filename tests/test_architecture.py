@@ -24,9 +24,9 @@ LAYERS: dict[str, int] = {
     "geometry": 3,
     "facemodel": 4, "render": 4, "measurements": 4,
     "stage1_landmarks": 5, "stage2_curves": 5, "stage3_mesh": 5,
-    "pipeline": 6,
+    "pipeline": 6, "texture": 6,
     "editing": 7, "intake": 7, "testbed": 7,
-    "report": 8,
+    "report": 8, "records": 8,
     "app": 9,
     "cli": 10, "__main__": 11,
 }

@@ -346,14 +346,20 @@ class EditController:
         self._worker.join(timeout=5.0)
 
     # sessions (the file format: naseview.editing.session)
-    def snapshot(self, app: Mapping[str, Any] | None = None) -> Session:
-        """Everything needed to reopen this editor exactly (an open drag is committed
-        first); ``app`` is stored as the session's free-form app state."""
+    def snapshot(self, app: Mapping[str, Any] | None = None,
+                 commit_drag: bool = True) -> Session:
+        """Everything needed to reopen this editor exactly; ``app`` is stored as the
+        session's free-form app state.
+
+        An open drag is committed first (``commit_drag``), or left alone and the last
+        committed state taken instead (``commit_drag=False``: a background save never
+        splits the surgeon's drag into two undo entries)."""
         with self._lock:
-            if self._drag is not None:
+            if self._drag is not None and commit_drag:
                 self._commit_locked()
             sim = self._published
-            lms = copy_landmarks(self._landmarks)
+            lms = copy_landmarks(self._landmarks if self._drag is None
+                                 else self._history[self._index].landmarks)
             history = [copy_landmarks(e.landmarks) for e in self._history]
             index = self._index
             symmetric = self._symmetric

@@ -13,6 +13,11 @@ of the baseline's. The case folder it names (``app.case_dir``, where the photos 
 stored relative to the session file and must lie in the session file's folder
 (:meth:`Session.case_folder`); a session saved beside ``case.json`` finds it there.
 
+A session kept in a patient folder (:mod:`naseview.records`) also carries an optional
+``record`` object (:class:`SessionRecord`: the simulation's name, when it was created and
+last saved, and the SHA-256 of the ``reconstruction.json`` it was made on); files without
+it are read as before.
+
 The format is documented in ``docs/formats.md``; :data:`SESSION_FORMAT` is its ``format``
 string.
 
@@ -58,6 +63,70 @@ class SavedSimulation:
     measurements: dict[str, float]
 
 
+MAX_NAME_LENGTH = 80
+"""Longest simulation name (characters) a session file may hold."""
+
+
+@dataclass(frozen=True)
+class SessionRecord:
+    """The optional ``record`` object of a session kept in a patient folder.
+
+    Attributes:
+        name: the simulation's name as the surgeon sees it ("Simulation 2").
+        created: when the simulation was started (ISO 8601, local time with offset).
+        modified: when it was last saved (ISO 8601).
+        reconstruction_sha256: SHA-256 (64 hex digits) of the ``reconstruction.json``
+            whose result is the baseline, or None when unknown.
+    """
+
+    name: str
+    created: str | None = None
+    modified: str | None = None
+    reconstruction_sha256: str | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``record`` object."""
+        return {"name": self.name, "created": self.created, "modified": self.modified,
+                "reconstruction_sha256": self.reconstruction_sha256}
+
+
+def check_name(name: object, where: str = "simulation", key: str = "record.name") -> str:
+    """``name`` if it is a simulation name: a string of 1 to :data:`MAX_NAME_LENGTH`
+    printable characters, stripped.
+
+    Raises:
+        NaseviewError: naming ``where`` and ``key``.
+    """
+    if not isinstance(name, str):
+        raise NaseviewError(f"{where}: key {key!r}: expected a name (text)")
+    text = name.strip()
+    if not text or len(text) > MAX_NAME_LENGTH or not text.isprintable():
+        raise NaseviewError(f"{where}: key {key!r}: a name is 1 to {MAX_NAME_LENGTH} "
+                            "printable characters; choose a shorter, plain name")
+    return text
+
+
+def _record(value: object, where: str) -> SessionRecord | None:
+    """Parse the optional ``record`` object."""
+    if value is None:
+        return None
+    obj = _object(value, where, "record")
+    name = check_name(obj.get("name"), where, "record.name")
+    times: list[str | None] = []
+    for key in ("created", "modified"):
+        t = obj.get(key)
+        if t is not None and (not isinstance(t, str) or len(t) > 40):
+            raise NaseviewError(f"{where}: key 'record.{key}': expected an ISO 8601 time "
+                                "or null")
+        times.append(t)
+    digest = obj.get("reconstruction_sha256")
+    if digest is not None and not (isinstance(digest, str) and len(digest) == 64 and all(
+            c in "0123456789abcdef" for c in digest)):
+        raise NaseviewError(f"{where}: key 'record.reconstruction_sha256': expected 64 hex "
+                            "digits or null")
+    return SessionRecord(name, times[0], times[1], digest)
+
+
 @dataclass(frozen=True)
 class Session:
     """A parsed session file (or a snapshot of an editor about to be saved).
@@ -71,6 +140,8 @@ class Session:
         simulation: the saved solved state, or None (then re-solved on open).
         app: free-form app state (source path, parameters, view toggles).
         path: the file it came from.
+        record: name, times and reconstruction of a simulation kept in a patient folder
+            (the ``record`` object), or None.
     """
 
     baseline: Baseline
@@ -81,6 +152,7 @@ class Session:
     simulation: SavedSimulation | None
     app: dict[str, Any]
     path: Path | None = None
+    record: SessionRecord | None = None
 
     def case_folder(self) -> Path | None:
         """The case folder holding the photos: ``app.case_dir`` resolved against the
@@ -146,9 +218,11 @@ def session_to_json(session: Session, folder: str | os.PathLike[str] | None = No
     base = session.baseline
     baseline = base.to_json()
     baseline["reconstruction"].pop(CASE_DIR_KEY, None)  # relative to another folder
+    head: dict[str, Any] = {"format": SESSION_FORMAT, "units": "mm"}
+    if session.record is not None:
+        head["record"] = session.record.to_json()
     return {
-        "format": SESSION_FORMAT,
-        "units": "mm",
+        **head,
         "baseline": baseline,
         "edit": {
             "landmarks": {k: v.tolist() for k, v in session.landmarks.items()},
@@ -278,4 +352,5 @@ def session_from_json(obj: Mapping[str, Any], where: str = "session",
     if case_dir is not None and not isinstance(case_dir, str):
         raise NaseviewError(f"{where}: key 'app.{CASE_DIR_KEY}': expected a path relative "
                             "to the session file, or null")
-    return Session(baseline, lms, history, index, symmetric, saved, app, path)
+    record = _record(obj.get("record"), where)
+    return Session(baseline, lms, history, index, symmetric, saved, app, path, record)

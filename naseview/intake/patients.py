@@ -2,9 +2,23 @@
 
 Layout (the work folder is ``$NASEVIEW_WORK_DIR``, default ``~/naseview-patients``)::
 
-    WORK/in-progress/<name>/   annotation.json + photos of an annotation (autosave)
-    WORK/<id>/case/            the case directory "Reconstruct" writes (SPEC §3)
-    WORK/<id>/report/          the consultation report
+    WORK/in-progress/<name>/            annotation.json + photos of an annotation (autosave)
+    WORK/index.sqlite                   the patient list (a cache of the folders,
+                                        :mod:`naseview.records.index`)
+    WORK/<id>/case/                     the case directory "Reconstruct" writes (SPEC §3)
+    WORK/<id>/patient.json              the patient record: when it was created and, for a
+                                        case opened from elsewhere, the link to it (path +
+                                        SHA-256 of its case.json; never copied)
+    WORK/<id>/reconstruction/           the pipeline output set (SPEC §5, all or nothing)
+    WORK/<id>/simulations/<slug>.json   named simulations (``naseview.session/1``)
+    WORK/<id>/trash/                    deleted simulations
+    WORK/<id>/report/                   the consultation report
+
+Every path below ``WORK`` is derived here from a validated id (:meth:`PatientFolders.
+patient_dir`: :func:`is_patient_id`) and a validated simulation slug
+(:func:`is_simulation_slug`), never from a string read from a file or the index; and
+:meth:`PatientFolders.inside` refuses a path that a symbolic link leads out of its
+patient's folder.
 
 :class:`PatientFolders` is the one home of that layout and of the rule that a case id
 belongs to one patient: a new patient gets a fresh folder (created exclusively, so two
@@ -30,6 +44,8 @@ unfinished patient in in-progress/P001); choose a different id, or open that pat
 from __future__ import annotations
 
 import os
+import re
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,6 +59,44 @@ from naseview.intake.session import (
     default_work_dir,
     list_in_progress,
 )
+
+RESERVED_NAMES = frozenset({"in-progress", "index.sqlite", "index.sqlite-wal",
+                            "index.sqlite-shm", "index.sqlite-journal"})
+"""Names in ``WORK`` that are not patients (compared ignoring upper / lower case)."""
+
+PATIENT_RECORD = "patient.json"
+RECONSTRUCTION_FOLDER = "reconstruction"
+SIMULATIONS_FOLDER = "simulations"
+TRASH_FOLDER = "trash"
+INDEX_FILE = "index.sqlite"
+OWN_FOLDERS = ("case", "report", PATIENT_RECORD, RECONSTRUCTION_FOLDER, SIMULATIONS_FOLDER,
+               TRASH_FOLDER)
+"""What a patient folder holds (the entries :meth:`PatientFolders.holder` allows beside
+an annotation's own case)."""
+
+_SLUG_RE = re.compile(r"[a-z0-9](?:[a-z0-9-]{0,62}[a-z0-9])?")
+
+
+def is_patient_id(name: str) -> bool:
+    """Whether ``name`` is a patient folder name naseview makes: already file-name safe
+    (:func:`~naseview.intake.annotation_file.safe_case_id` leaves it as it is: no ``/``,
+    ``..``, NUL, leading dot; at most 64 characters) and not a reserved name.
+
+    >>> is_patient_id("P001"), is_patient_id("../etc"), is_patient_id("in-progress")
+    (True, False, False)
+    """
+    return (isinstance(name, str) and 0 < len(name) <= 64 and safe_case_id(name) == name
+            and name.casefold() not in RESERVED_NAMES)
+
+
+def is_simulation_slug(slug: str) -> bool:
+    """Whether ``slug`` names a simulation file ``<slug>.json``: lower-case letters,
+    digits and inner ``-``, at most 64 characters.
+
+    >>> is_simulation_slug("simulation-2"), is_simulation_slug("../x"), is_simulation_slug("")
+    (True, False, False)
+    """
+    return isinstance(slug, str) and _SLUG_RE.fullmatch(slug) is not None
 
 
 @dataclass(frozen=True)
@@ -77,12 +131,98 @@ class PatientFolders:
         return self.root / "in-progress"
 
     def patient_dir(self, case_id: str) -> Path:
-        """``WORK/<id>``: the patient's folder (case, report)."""
+        """``WORK/<id>``: the patient's folder (case, reconstruction, simulations, report).
+
+        Raises:
+            NaseviewError: ``case_id`` is not a patient id (:func:`is_patient_id`: ``..``,
+                ``/``, NUL, too long, reserved), so no path leaves ``WORK``.
+        """
+        if not is_patient_id(case_id):
+            shown = case_id[:80] if isinstance(case_id, str) else type(case_id).__name__
+            raise NaseviewError(f"patient id {shown!r}: not a patient folder name (use "
+                                "letters, digits, '-', '_', '.', at most 64, as "
+                                f"naseview writes them in {self.root})")
         return self.root / case_id
 
     def case_dir(self, case_id: str) -> Path:
         """``WORK/<id>/case``: where "Reconstruct" writes the patient's case."""
         return self.patient_dir(case_id) / "case"
+
+    def record_file(self, case_id: str) -> Path:
+        """``WORK/<id>/patient.json``: created time and the link to a case kept elsewhere."""
+        return self.patient_dir(case_id) / PATIENT_RECORD
+
+    def reconstruction_dir(self, case_id: str) -> Path:
+        """``WORK/<id>/reconstruction``: the pipeline output set of the patient's case."""
+        return self.patient_dir(case_id) / RECONSTRUCTION_FOLDER
+
+    def simulations_dir(self, case_id: str) -> Path:
+        """``WORK/<id>/simulations``: the named simulations."""
+        return self.patient_dir(case_id) / SIMULATIONS_FOLDER
+
+    def simulation_file(self, case_id: str, slug: str) -> Path:
+        """``WORK/<id>/simulations/<slug>.json``.
+
+        Raises:
+            NaseviewError: ``slug`` is not a simulation slug (:func:`is_simulation_slug`).
+        """
+        if not is_simulation_slug(slug):
+            raise NaseviewError(f"simulation {str(slug)[:80]!r}: not a simulation name "
+                                "(lower-case letters, digits and '-', at most 64)")
+        return self.simulations_dir(case_id) / f"{slug}.json"
+
+    def report_dir(self, case_id: str) -> Path:
+        """``WORK/<id>/report``: the consultation report."""
+        return self.patient_dir(case_id) / "report"
+
+    def trash_dir(self, case_id: str) -> Path:
+        """``WORK/<id>/trash``: deleted simulations (move one back to restore it)."""
+        return self.patient_dir(case_id) / TRASH_FOLDER
+
+    @property
+    def index_file(self) -> Path:
+        """``WORK/index.sqlite``: the patient list (a cache of the folders)."""
+        return self.root / INDEX_FILE
+
+    def patient_ids(self) -> list[str]:
+        """The ids of the patient folders in ``WORK`` (real folders with a valid name;
+        symbolic links are not patients), sorted."""
+        try:
+            entries = list(os.scandir(self.root))
+        except OSError:
+            return []
+        return sorted(e.name for e in entries
+                      if is_patient_id(e.name) and e.is_dir(follow_symlinks=False))
+
+    def inside(self, case_id: str, path: str | os.PathLike[str]) -> Path:
+        """``path`` if it lies in ``WORK/<id>`` with no symbolic link on the way (the
+        patient folder itself included), whether or not it exists yet.
+
+        Raises:
+            NaseviewError: a symbolic link (or a non-folder) on the way, naming it.
+        """
+        top = self.patient_dir(case_id)
+        p = Path(path)
+        try:
+            rel = p.relative_to(top)
+        except ValueError:
+            raise NaseviewError(f"{p}: not inside the patient folder {top}") from None
+        if ".." in rel.parts:
+            raise NaseviewError(f"{p}: '..' in a path inside the patient folder {top}")
+        here = top
+        for part in ("", *rel.parts):
+            here = here / part if part else here
+            try:
+                st = os.lstat(here)
+            except FileNotFoundError:
+                break
+            except OSError as e:
+                raise NaseviewError(f"{here}: cannot read ({one_line(e)})") from None
+            if stat.S_ISLNK(st.st_mode):
+                raise NaseviewError(f"{here}: is a symbolic link; naseview follows no link "
+                                    f"inside the work folder {self.root} (replace it by "
+                                    "the folder or file itself)")
+        return p
 
     def annotations(self) -> list[InProgress]:
         """The annotations under :attr:`in_progress`, newest first."""
@@ -116,7 +256,7 @@ class PatientFolders:
     @staticmethod
     def _holds_only_own_case(d: Path, session: AnnotationSession) -> bool:
         entries = [p for p in d.iterdir() if not p.name.startswith(".")]
-        return all(p.name in ("case", "report") for p in entries) and (
+        return all(p.name in OWN_FOLDERS for p in entries) and (
             session.owns(d / "case")) and (d / "case").exists()
 
     def check_id(self, case_id: str, session: AnnotationSession | None = None) -> str:
@@ -130,6 +270,9 @@ class PatientFolders:
         if not cid:
             raise NaseviewError(f"case id {case_id!r}: use letters, digits, '-', '_' "
                                 "(no patient names)")
+        if not is_patient_id(cid):
+            raise NaseviewError(f"case id {cid!r}: a name naseview uses in the work "
+                                "folder; choose a different id")
         who = self.holder(cid, session)
         if who is not None:
             raise NaseviewError(f"case id {cid!r} is already used by another patient "
@@ -184,11 +327,11 @@ class PatientFolders:
         annotation = next((a.folder for a in self.annotations()
                            if a.problem is None and not a.finished
                            and a.case_id.casefold() == cid.casefold()), None)
-        case = self.case_dir(cid)
-        case_dir = case if (case / "case.json").is_file() else None
+        case = self.case_dir(cid) if is_patient_id(cid) else None
+        case_dir = case if case is not None and (case / "case.json").is_file() else None
         if annotation is None and case_dir is None:
             return None
         return ExistingPatient(cid, annotation, case_dir)
 
 
-__all__ = ["ExistingPatient", "PatientFolders"]
+__all__ = ["ExistingPatient", "PatientFolders", "is_patient_id", "is_simulation_slug"]

@@ -190,3 +190,25 @@ def test_rebase_keeps_landmark_displacements(baseline):
         assert np.array_equal(ctl.simulation.V, shifted.V)
     finally:
         ctl.close()
+
+
+def test_background_snapshot_leaves_an_open_drag_alone(baseline):
+    """An autosave taken in the middle of a drag stores the last committed state and does
+    not split the drag into two undo entries."""
+    ctl = EditController(baseline, GaussianSolver(baseline))
+    try:
+        start = ctl.landmarks["prn"].copy()
+        ctl.begin_drag("prn")
+        ctl.drag_to("prn", start + [0, 1.0, 0])
+        snap = ctl.snapshot(commit_drag=False)
+        assert ctl.dragging == "prn"                       # still dragging
+        np.testing.assert_array_equal(snap.landmarks["prn"], start)
+        assert len(snap.history) == 1
+        ctl.drag_to("prn", start + [0, 2.0, 0])
+        ctl.end_drag()
+        assert ctl.wait_idle(10)
+        assert ctl.history_length == 2                     # one drag, one undo entry
+        np.testing.assert_allclose(ctl.landmarks["prn"], start + [0, 2.0, 0])
+        assert len(ctl.snapshot().history) == 2
+    finally:
+        ctl.close()

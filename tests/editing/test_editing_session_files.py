@@ -4,6 +4,7 @@ leaves their folder."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -17,8 +18,10 @@ from naseview.editing.controller import EditController
 from naseview.editing.session import (
     SavedSimulation,
     Session,
+    SessionRecord,
     load_session,
     save_session,
+    session_from_json,
     session_to_json,
 )
 from naseview.errors import NaseviewError
@@ -162,3 +165,37 @@ def test_an_old_session_with_an_absolute_case_folder_still_opens(tmp_path: Path)
     obj["app"]["case_dir"] = str(tmp_path / "case")       # what older versions wrote
     session = load_session(_write(tmp_path / "s.json", obj))
     assert session.case_folder() == (tmp_path / "case").resolve()
+
+
+def test_the_record_of_a_kept_simulation_round_trips(tmp_path: Path):
+    """The optional ``record`` object (name, times, reconstruction) is read back; a file
+    without it (a download, an older version) opens as before."""
+    obj = _session_obj()
+    assert "record" not in obj
+    assert load_session(_write(tmp_path / "old.json", obj)).record is None
+    sha = "ab" * 32
+    rec = SessionRecord("Tip up 2 mm", "2026-01-02T03:04:05+01:00", None, sha)
+    s = session_from_json(obj)
+    obj2 = session_to_json(dataclasses.replace(s, record=rec))
+    assert list(obj2)[:3] == ["format", "units", "record"]
+    assert load_session(_write(tmp_path / "new.json", obj2)).record == rec
+
+
+RECORD_BAD = [
+    ("name type", {"name": 7}, "record.name"),
+    ("name empty", {"name": "  "}, "record.name"),
+    ("name long", {"name": "x" * 81}, "record.name"),
+    ("name control", {"name": "a\nb"}, "record.name"),
+    ("time type", {"name": "a", "created": 5}, "record.created"),
+    ("sha", {"name": "a", "reconstruction_sha256": "zz"}, "record.reconstruction_sha256"),
+    ("not an object", "x", "'record'"),
+]
+
+
+@pytest.mark.parametrize(("what", "record", "needle"), RECORD_BAD,
+                         ids=[b[0] for b in RECORD_BAD])
+def test_a_bad_record_is_one_line(tmp_path: Path, what, record, needle):
+    obj = dict(_session_obj(), record=record)
+    with pytest.raises(NaseviewError) as e:
+        load_session(_write(tmp_path / "s.json", obj))
+    assert needle in str(e.value) and "\n" not in str(e.value)

@@ -107,3 +107,42 @@ def test_an_unfinished_patient_holds_its_id(tmp_path: Path):
     # two new patients never share a folder, even with the same default id
     folders = {work.new_session().folder for _ in range(3)}
     assert len(folders) == 3
+
+
+def test_every_path_comes_from_a_checked_id_and_slug(tmp_path: Path):
+    """The layout (issue 14): reconstruction, simulations, trash and record live in the
+    patient folder, derived from a checked id; reserved names are never patients."""
+    work = PatientFolders(tmp_path / "work")
+    top = work.patient_dir("P030")
+    assert work.reconstruction_dir("P030") == top / "reconstruction"
+    assert work.simulation_file("P030", "simulation-2") == top / "simulations" / \
+        "simulation-2.json"
+    assert work.trash_dir("P030") == top / "trash" and work.record_file("P030") == \
+        top / "patient.json"
+    assert work.index_file == work.root / "index.sqlite"
+    assert work.report_dir("P030") == top / "report"
+    for bad in ("..", "../x", "a/b", "x\0", "P" * 65, "", "in-progress", "INDEX.sqlite"):
+        with pytest.raises(NaseviewError, match="not a patient folder name"):
+            work.patient_dir(bad)
+    for bad in ("../x", "A", "-x", "x.json", "a" * 65):
+        with pytest.raises(NaseviewError, match="not a simulation name"):
+            work.simulation_file("P030", bad)
+    with pytest.raises(NaseviewError, match="a name naseview uses"):
+        work.new_session("in-progress")
+    assert work.find("") is None
+
+
+def test_a_patient_with_its_reconstruction_and_simulations_may_rewrite_its_case(
+        tmp_path: Path):
+    work = PatientFolders(tmp_path / "work")
+    s = work.new_session("P040")
+    ready(s, 90)
+    s.write_case(work.case_dir("P040"))
+    for folder in ("reconstruction", "simulations", "trash"):
+        (work.patient_dir("P040") / folder).mkdir()
+    (work.record_file("P040")).write_text("{}")
+    work.rename(s, "P040")                            # still its own id
+    s.write_case(work.case_dir("P040"))
+    other = work.new_session()
+    with pytest.raises(NaseviewError, match="already used"):
+        work.rename(other, "P040")
