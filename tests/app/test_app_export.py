@@ -37,3 +37,54 @@ def test_exports_readable(baseline, tmp_path):
     m = js["measurements"]["nasal_length"]
     assert m["change"] == pytest.approx(m["simulated"] - m["original"])
     assert "nasal_length" in measurements_csv(baseline.measurements, sim).decode()
+
+
+def test_glb_download_is_in_metres(baseline):
+    import io
+
+    import trimesh
+
+    data = mesh_file(baseline.V, baseline.F, "glb")
+    raw = trimesh.load(io.BytesIO(data), file_type="glb", force="mesh", process=False)
+    width_m = float(raw.extents[0])
+    assert 0.1 < width_m < 0.3                     # a face is 10-30 cm wide, not 140 m
+    assert np.allclose(raw.extents, np.ptp(baseline.V, axis=0) / 1000.0, atol=1e-5)
+
+
+def test_watertight_stl_for_printing(baseline, tmp_path):
+    import trimesh
+
+    for part in (None, baseline.nose_ids):
+        data = mesh_file(baseline.V, baseline.F, "stl", part, watertight=True)
+        (tmp_path / "p.stl").write_bytes(data)
+        V, F = read_mesh(tmp_path / "p.stl")
+        m = trimesh.Trimesh(V, F, process=False)
+        assert m.is_watertight and m.is_winding_consistent and m.volume > 0
+    open_face = mesh_file(baseline.V, baseline.F, "stl")
+    (tmp_path / "o.stl").write_bytes(open_face)
+    assert not trimesh.Trimesh(*read_mesh(tmp_path / "o.stl"), process=False).is_watertight
+
+
+def test_textured_exports(baseline):
+    import io
+    import zipfile
+
+    import trimesh
+
+    from naseview.app.export import textured_obj_zip
+    from naseview.texture.bake import FaceTexture
+    from naseview.texture.uv import face_uv
+
+    uv = face_uv(baseline.V, baseline.F)
+    image = np.zeros((64, 64, 3), np.uint8)
+    image[..., 0] = np.arange(64, dtype=np.uint8)[None, :] * 4
+    tex = FaceTexture(uv, image, np.ones((64, 64), bool),
+                      np.full((len(uv), 3), 180, np.uint8))
+    glb = mesh_file(baseline.V, baseline.F, "glb", baseline.nose_ids, texture=tex)
+    m = trimesh.load(io.BytesIO(glb), file_type="glb", force="mesh", process=False)
+    assert len(m.visual.uv) == len(m.vertices) < len(uv)
+    z = zipfile.ZipFile(io.BytesIO(textured_obj_zip(baseline.V, baseline.F, tex)))
+    assert sorted(z.namelist()) == ["face.mtl", "face.obj", "face.png"]
+    assert z.read("face.obj").decode().count("\nvt ") == len(uv)
+    ply = mesh_file(baseline.V, baseline.F, "ply", texture=tex)
+    assert b"red" in ply.split(b"end_header")[0]             # per-vertex colours

@@ -1,0 +1,165 @@
+"""Textured renders of the face from the standard clinical views, and PNGs for the chart.
+
+A face ``V`` (n, 3) mm (SPEC frame: +x subject's left, +y up, +z anterior), ``F`` (m, 3), with
+a :class:`~naseview.texture.bake.FaceTexture` (or plain per-vertex colours) is rendered by
+the software rasteriser (:func:`naseview.render.rasterize`) through a portrait-lens camera
+600 mm away (:func:`naseview.camera.orbit_camera`): per pixel the texture is looked up at
+the interpolated ``uv`` and lightly shaded (the photos already carry their light, so only
+``shading`` of the key/fill lighting of :func:`naseview.render.shade_vertices` is added,
+enough to read the shape). Eye and mouth openings are capped (their texture is the photo's
+eye and mouth, see :mod:`naseview.texture.bake`).
+
+Example
+-------
+>>> png = render_view_png(V, F, tex, "left", size=800, nose_ids=ids)    # doctest: +SKIP
+>>> list(STANDARD_VIEWS)[:3]
+['front', 'left', 'right']
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+from numpy.typing import ArrayLike
+
+from naseview.camera import Camera, orbit_camera
+from naseview.errors import NaseviewError
+from naseview.fileio import image_bytes
+from naseview.geometry.closing import cap_holes, cap_values
+from naseview.geometry.mesh import vertex_normals
+from naseview.render import rasterize, shade_vertices
+from naseview.texture.bake import FaceTexture, sample_image
+from naseview.texture.uv import uv_to_pixels
+
+__all__ = ["STANDARD_VIEWS", "render_textured", "render_view_png", "standard_camera"]
+
+_S45 = math.sin(math.radians(45.0))
+STANDARD_VIEWS: dict[str, tuple[str, tuple[float, float, float]]] = {
+    "front": ("Front", (0.0, 0.0, 1.0)),
+    "left": ("Left profile", (1.0, 0.0, 0.0)),
+    "right": ("Right profile", (-1.0, 0.0, 0.0)),
+    "base": ("Base (basal)", (0.0, -math.sin(math.radians(60.0)), math.cos(math.radians(60.0)))),
+    "three_quarter_left": ("Three-quarter left", (_S45, 0.0, _S45)),
+    "three_quarter_right": ("Three-quarter right", (-_S45, 0.0, _S45)),
+}
+"""View name -> (title, direction from the face towards the camera, SPEC frame). "left" is
+the subject's left side (camera on +x), as in the photo views of SPEC §2."""
+
+DISTANCE_MM = 600.0
+
+
+def standard_camera(V: ArrayLike, view: str, size: int = 800,
+                    nose_ids: ArrayLike | None = None, field_factor: float = 2.6
+                    ) -> Camera:
+    """Camera of a standard view (:data:`STANDARD_VIEWS`) framing the nose or the face.
+
+    Args:
+        V: (n, 3) vertices (mm).
+        view: a key of :data:`STANDARD_VIEWS`.
+        size: image width = height (px).
+        nose_ids: (k,) nose vertices: frame the nose, ``field_factor`` times its extent;
+            default: frame the face (the front 90 mm of the head).
+        field_factor: see ``nose_ids``.
+    Raises:
+        NaseviewError: unknown view name.
+    """
+    if view not in STANDARD_VIEWS:
+        raise NaseviewError(f"view {view!r}: unknown; use one of {', '.join(STANDARD_VIEWS)}")
+    V = np.asarray(V, dtype=np.float64)
+    if nose_ids is not None and len(np.asarray(nose_ids)):
+        P = V[np.asarray(nose_ids, dtype=np.int64)]
+        field = field_factor * float(np.ptp(P, axis=0).max())
+    else:
+        P = V[V[:, 2] >= V[:, 2].max() - 90.0]
+        field = 1.1 * float(max(np.ptp(P[:, 0]), np.ptp(P[:, 1]), np.ptp(P[:, 2])))
+    centre = 0.5 * (P.min(axis=0) + P.max(axis=0))
+    return orbit_camera(centre, STANDARD_VIEWS[view][1], DISTANCE_MM, max(field, 1.0),
+                        int(size))
+
+
+def render_textured(V: ArrayLike, F: ArrayLike, camera: Camera,
+                    texture: FaceTexture | None = None,
+                    vertex_colors: ArrayLike | None = None,
+                    background: tuple[int, int, int] = (255, 255, 255),
+                    shading: float = 0.35, supersample: int = 2,
+                    cap: bool = True) -> np.ndarray:
+    """Render the face with its texture (or RGB vertex colours) through ``camera``.
+
+    Args:
+        V: (n, 3) vertices (mm); F: (m, 3) triangles (those the texture was baked for).
+        camera: the camera (image of its size).
+        texture: the baked texture; or
+        vertex_colors: (n, 3) uint8 RGB per vertex (default light skin grey).
+        background: RGB of empty pixels.
+        shading: share of the rendered lighting mixed in (0 = the texture as it is).
+        supersample: anti-aliasing factor.
+        cap: close the eye and mouth openings first.
+    Returns:
+        (H, W, 3) uint8 **RGB** image.
+    """
+    V = np.asarray(V, dtype=np.float64)
+    F = np.asarray(F, dtype=np.int64)
+    if texture is not None and len(texture.uv) != len(V):
+        raise NaseviewError(f"texture: it has {len(texture.uv)} vertices, the mesh {len(V)}; "
+                            "bake it for this mesh")
+    if cap:
+        Vc, Fc = cap_holes(V, F)
+    else:
+        Vc, Fc = V, F
+    s = max(1, int(supersample))
+    ras = rasterize(Vc, Fc, camera, supersample=s)
+    Hs, Ws = ras.depth.shape
+    out = np.empty((Hs * Ws, 3), np.float32)
+    out[:] = np.asarray(background, np.float32)
+    if ras.pixels.size:
+        if texture is not None:
+            uv = cap_values(texture.uv, F, V) if cap else texture.uv
+            th, tw = texture.image.shape[:2]
+            xy = ras.interpolate(Fc, uv_to_pixels(uv, tw, th))
+            col = sample_image(texture.image, xy)
+        else:
+            vc = (np.full((len(V), 3), 200.0) if vertex_colors is None
+                  else np.asarray(vertex_colors, dtype=np.float64))
+            if len(vc) != len(V):
+                raise NaseviewError(f"vertex colours: {len(vc)} for {len(V)} vertices")
+            col = ras.interpolate(Fc, cap_values(vc, F, V) if cap else vc)
+        N = vertex_normals(Vc, Fc)
+        lit = shade_vertices(Vc, N, np.ones((len(Vc), 3)), camera, specular=0.05)[:, 0]
+        k = float(np.clip(shading, 0.0, 1.0))
+        light = ras.interpolate(Fc, (1.0 - k) + k * lit / 1.1)
+        out[ras.pixels] = col * light[:, None]
+    img: np.ndarray = np.clip(out + 0.5, 0, 255).astype(np.uint8).reshape(Hs, Ws, 3)
+    if s > 1:
+        img = np.asarray(cv2.resize(img, (camera.width, camera.height),
+                                    interpolation=cv2.INTER_AREA))
+    return img
+
+
+def render_view_png(V: ArrayLike, F: ArrayLike, texture: FaceTexture | ArrayLike | None,
+                    view_name: str, size: int = 800, nose_ids: ArrayLike | None = None
+                    ) -> bytes:
+    """PNG of the face from a standard view, for the patient's chart.
+
+    Args:
+        V: (n, 3) vertices (mm); F: (m, 3) triangles.
+        texture: a :class:`FaceTexture`, or (n, 3) uint8 RGB vertex colours, or None
+            (plain skin grey).
+        view_name: a key of :data:`STANDARD_VIEWS` (front, left, right, base,
+            three_quarter_left, three_quarter_right).
+        size: width = height (px, 64..4096).
+        nose_ids: frame the nose (see :func:`standard_camera`); default the whole face.
+    Returns:
+        PNG bytes (RGB image, white background).
+    Raises:
+        NaseviewError: unknown view, bad size, or a texture of another mesh.
+    """
+    if not 64 <= int(size) <= 4096:
+        raise NaseviewError(f"view PNG: size {size} must be between 64 and 4096 px")
+    cam = standard_camera(V, view_name, int(size), nose_ids)
+    if isinstance(texture, FaceTexture):
+        img = render_textured(V, F, cam, texture=texture)
+    else:
+        img = render_textured(V, F, cam, vertex_colors=texture)
+    return image_bytes(np.ascontiguousarray(img[:, :, ::-1]), ".png")
