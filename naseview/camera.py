@@ -16,6 +16,7 @@ Example
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -174,3 +175,55 @@ def rotation_to_rvec(R: ArrayLike) -> np.ndarray:
     from scipy.spatial.transform import Rotation
 
     return Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_rotvec()
+
+
+_S45 = math.sin(math.radians(45.0))
+STANDARD_VIEWS: dict[str, tuple[str, tuple[float, float, float]]] = {
+    "front": ("Front", (0.0, 0.0, 1.0)),
+    "left": ("Left profile", (1.0, 0.0, 0.0)),
+    "right": ("Right profile", (-1.0, 0.0, 0.0)),
+    "base": ("Base (basal)", (0.0, -math.sin(math.radians(60.0)), math.cos(math.radians(60.0)))),
+    "three_quarter_left": ("Three-quarter left", (_S45, 0.0, _S45)),
+    "three_quarter_right": ("Three-quarter right", (-_S45, 0.0, _S45)),
+}
+"""The standard clinical views of the app, the report and the view PNGs (one table for all):
+name -> (title, direction from the face towards the camera, SPEC frame). "left" is the
+subject's left side (camera on +x), as in the photo views of SPEC §2.
+
+>>> list(STANDARD_VIEWS)[:3]
+['front', 'left', 'right']
+"""
+
+DISTANCE_MM = 600.0
+
+
+def standard_camera(V: ArrayLike, view: str, size: int = 800,
+                    nose_ids: ArrayLike | None = None, field_factor: float = 2.6
+                    ) -> Camera:
+    """Camera of a standard view (:data:`STANDARD_VIEWS`) framing the nose or the face.
+
+    Args:
+        V: (n, 3) vertices (mm).
+        view: a key of :data:`STANDARD_VIEWS`.
+        size: image width = height (px).
+        nose_ids: (k,) nose vertices: frame the nose, ``field_factor`` times its extent;
+            default: frame the face (the front 90 mm of the head).
+        field_factor: see ``nose_ids``.
+    Raises:
+        NaseviewError: unknown view name.
+    """
+    if view not in STANDARD_VIEWS:
+        raise NaseviewError(f"view {view!r}: unknown; use one of {', '.join(STANDARD_VIEWS)}")
+    V = np.asarray(V, dtype=np.float64)
+    if nose_ids is not None and len(np.asarray(nose_ids)):
+        P = V[np.asarray(nose_ids, dtype=np.int64)]
+        field = field_factor * float(np.ptp(P, axis=0).max())
+    else:
+        P = V[V[:, 2] >= V[:, 2].max() - 90.0]
+        field = 1.1 * float(max(np.ptp(P[:, 0]), np.ptp(P[:, 1]), np.ptp(P[:, 2])))
+    centre = 0.5 * (P.min(axis=0) + P.max(axis=0))
+    if view == "base" and nose_ids is not None and len(P):
+        low = P[P[:, 1] <= np.quantile(P[:, 1], 0.4)]  # aim at the nasal base, not the
+        centre = 0.5 * (low.min(axis=0) + low.max(axis=0))  # middle of the dorsum
+    return orbit_camera(centre, STANDARD_VIEWS[view][1], DISTANCE_MM, max(field, 1.0),
+                        int(size))

@@ -2,7 +2,7 @@
 
 The face model (:mod:`naseview.facemodel`) is rendered (:func:`naseview.render.render_mesh`)
 from the direction of each photo, its eye and mouth holes closed
-(:func:`naseview.report.cap_holes`); the landmarks asked for in that photo (SPEC §1) are
+(:func:`naseview.geometry.closing.cap_holes`); the landmarks asked for in that photo (SPEC §1) are
 drawn as grey dots and the one to click as a red dot with a ring.
 """
 
@@ -16,10 +16,10 @@ import numpy as np
 
 from naseview.camera import orbit_camera
 from naseview.facemodel import FaceModel, load_face_model
+from naseview.geometry.closing import cap_holes
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
 from naseview.landmarks import LANDMARKS
 from naseview.render import render_mesh
-from naseview.report import cap_holes
 
 log = logging.getLogger(__name__)
 

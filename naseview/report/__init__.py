@@ -26,9 +26,9 @@ from naseview.report.sources import (
     report_data_from_session,
 )
 from naseview.report.table import MeasurementRow, measurement_rows
-from naseview.report.views import RENDER_VIEWS, cap_holes, render_views, view_camera
+from naseview.report.views import RENDER_VIEWS, render_views
 
 __all__ = ["DISCLAIMER", "DISCLAIMER_DETAIL", "RENDER_VIEWS", "MeasurementRow", "ReportData",
-           "cap_holes", "measurement_rows", "render_views", "report_command",
+           "measurement_rows", "render_views", "report_command",
            "report_data_from_output", "report_data_from_session", "report_html",
-           "view_camera", "write_report"]
+           "write_report"]

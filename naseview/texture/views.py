@@ -9,22 +9,18 @@ the interpolated ``uv`` and lightly shaded (the photos already carry their light
 enough to read the shape). Eye and mouth openings are capped (their texture is the photo's
 eye and mouth, see :mod:`naseview.texture.bake`).
 
-Example
--------
->>> png = render_view_png(V, F, tex, "left", size=800, nose_ids=ids)    # doctest: +SKIP
->>> list(STANDARD_VIEWS)[:3]
-['front', 'left', 'right']
+Example (``tex`` baked for the face ``V``, ``F``; ``ids`` its nose vertices)::
+
+    png = render_view_png(V, F, tex, "left", size=800, nose_ids=ids)
 """
 
 from __future__ import annotations
-
-import math
 
 import cv2
 import numpy as np
 from numpy.typing import ArrayLike
 
-from naseview.camera import Camera, orbit_camera
+from naseview.camera import Camera, standard_camera
 from naseview.errors import NaseviewError
 from naseview.fileio import image_bytes
 from naseview.geometry.closing import cap_holes, cap_values
@@ -33,51 +29,7 @@ from naseview.render import rasterize, shade_vertices
 from naseview.texture.bake import FaceTexture, sample_image
 from naseview.texture.uv import uv_to_pixels
 
-__all__ = ["STANDARD_VIEWS", "render_textured", "render_view_png", "standard_camera"]
-
-_S45 = math.sin(math.radians(45.0))
-STANDARD_VIEWS: dict[str, tuple[str, tuple[float, float, float]]] = {
-    "front": ("Front", (0.0, 0.0, 1.0)),
-    "left": ("Left profile", (1.0, 0.0, 0.0)),
-    "right": ("Right profile", (-1.0, 0.0, 0.0)),
-    "base": ("Base (basal)", (0.0, -math.sin(math.radians(60.0)), math.cos(math.radians(60.0)))),
-    "three_quarter_left": ("Three-quarter left", (_S45, 0.0, _S45)),
-    "three_quarter_right": ("Three-quarter right", (-_S45, 0.0, _S45)),
-}
-"""View name -> (title, direction from the face towards the camera, SPEC frame). "left" is
-the subject's left side (camera on +x), as in the photo views of SPEC §2."""
-
-DISTANCE_MM = 600.0
-
-
-def standard_camera(V: ArrayLike, view: str, size: int = 800,
-                    nose_ids: ArrayLike | None = None, field_factor: float = 2.6
-                    ) -> Camera:
-    """Camera of a standard view (:data:`STANDARD_VIEWS`) framing the nose or the face.
-
-    Args:
-        V: (n, 3) vertices (mm).
-        view: a key of :data:`STANDARD_VIEWS`.
-        size: image width = height (px).
-        nose_ids: (k,) nose vertices: frame the nose, ``field_factor`` times its extent;
-            default: frame the face (the front 90 mm of the head).
-        field_factor: see ``nose_ids``.
-    Raises:
-        NaseviewError: unknown view name.
-    """
-    if view not in STANDARD_VIEWS:
-        raise NaseviewError(f"view {view!r}: unknown; use one of {', '.join(STANDARD_VIEWS)}")
-    V = np.asarray(V, dtype=np.float64)
-    if nose_ids is not None and len(np.asarray(nose_ids)):
-        P = V[np.asarray(nose_ids, dtype=np.int64)]
-        field = field_factor * float(np.ptp(P, axis=0).max())
-    else:
-        P = V[V[:, 2] >= V[:, 2].max() - 90.0]
-        field = 1.1 * float(max(np.ptp(P[:, 0]), np.ptp(P[:, 1]), np.ptp(P[:, 2])))
-    centre = 0.5 * (P.min(axis=0) + P.max(axis=0))
-    return orbit_camera(centre, STANDARD_VIEWS[view][1], DISTANCE_MM, max(field, 1.0),
-                        int(size))
-
+__all__ = ["render_textured", "render_view_png"]
 
 def render_textured(V: ArrayLike, F: ArrayLike, camera: Camera,
                     texture: FaceTexture | None = None,
@@ -146,10 +98,11 @@ def render_view_png(V: ArrayLike, F: ArrayLike, texture: FaceTexture | ArrayLike
         V: (n, 3) vertices (mm); F: (m, 3) triangles.
         texture: a :class:`FaceTexture`, or (n, 3) uint8 RGB vertex colours, or None
             (plain skin grey).
-        view_name: a key of :data:`STANDARD_VIEWS` (front, left, right, base,
+        view_name: a key of :data:`naseview.camera.STANDARD_VIEWS` (front, left, right, base,
             three_quarter_left, three_quarter_right).
         size: width = height (px, 64..4096).
-        nose_ids: frame the nose (see :func:`standard_camera`); default the whole face.
+        nose_ids: frame the nose (see :func:`naseview.camera.standard_camera`);
+            default the whole face.
     Returns:
         PNG bytes (RGB image, white background).
     Raises:
