@@ -4,8 +4,11 @@ A drag is replayed as the browser sends it: ``drag_to`` every 50 ms (viser throt
 events to ~20 Hz), through the app's real path (controller -> worker -> stage 3 solve ->
 scene update on a running viser server, no browser). For every request the latency is
 the time from ``drag_to`` until a scene update covering it has been queued for the
-browsers (the solve of a later request covers an earlier, dropped one). Bytes are the
-serialised size (msgpack + raw arrays, before zstd) of the messages queued per update.
+browser tab (the solve of a later request covers an earlier, dropped one). One headless
+tab is connected (:class:`naseview.app.headless_tab.HeadlessTab`): each tab has its own
+scene, so the updates are queued on that tab's connection; ``--tabs N`` connects more
+(every tab's scene is updated by the same solve). Bytes are the serialised size (msgpack
++ raw arrays, before zstd) of the messages queued per update for the first tab.
 
 Usage: ``python benchmarks/bench_app.py [--steps 60] [--landmarks prn,al_l,r]``.
 Needs the ICT model (``NASEVIEW_ICT_MODEL`` or an installed one).
@@ -25,6 +28,7 @@ import numpy as np
 from _shared import use_shared_ict
 
 from naseview.app.guard import guarded_viser_server
+from naseview.app.headless_tab import HeadlessTab
 from naseview.app.serve import NaseviewApp
 from naseview.editing.baseline import baseline_from_face_model
 from naseview.facemodel import load_face_model
@@ -43,6 +47,7 @@ def main() -> None:
     ap.add_argument("--landmarks", default="prn,al_l,r", help="landmarks to drag")
     ap.add_argument("--interval-ms", type=float, default=50.0)
     ap.add_argument("--amplitude-mm", type=float, default=4.0)
+    ap.add_argument("--tabs", type=int, default=1, help="browser tabs connected")
     args = ap.parse_args()
     use_shared_ict()
     model = load_face_model("ict")
@@ -54,14 +59,21 @@ def main() -> None:
     assert app.wait_ready(120), "app not ready"
     t_ready = time.perf_counter() - t0
     ctl = app.controller
-    scene = app.scene
-    assert ctl is not None and scene is not None
+    tabs = [HeadlessTab(server) for _ in range(max(1, args.tabs))]
+    end = time.monotonic() + 60
+    while not all((s := app.screen_of(t.client)) is not None and s.shown.is_set()
+                  for t in tabs):
+        assert time.monotonic() < end, "the tabs' screens were not built"
+        time.sleep(0.02)
+    screen = app.screen_of(tabs[0].client)
+    assert ctl is not None and screen is not None and screen.scene is not None
+    scene = screen.scene
 
-    # bytes of every message queued, attributed to the update that queues it
+    # bytes of every message queued for the first tab, attributed to the update
     lock = threading.Lock()
     by_node: dict[str, int] = defaultdict(int)
     total = [0]
-    ws = server._websock_server
+    ws = tabs[0].client._websock_connection
     orig = ws.queue_message
 
     def counting(m: object) -> None:
@@ -73,6 +85,7 @@ def main() -> None:
 
     ws.queue_message = counting  # type: ignore[method-assign]
     done: dict[int, float] = {}
+    # after every tab's scene listener: the update has been queued for every tab
     ctl.on_simulation.append(lambda s: done.setdefault(s.revision, time.perf_counter()))
 
     rows = []
@@ -126,7 +139,8 @@ def main() -> None:
     n_nose = len(scene.nose_ids)
     print(f"ICT face: {len(baseline.V)} vertices, {len(baseline.F)} triangles; nose mesh sent "
           f"live: {n_nose} vertices ({n_nose * 12 / 1024:.1f} KiB as float32); app ready in "
-          f"{t_ready:.1f} s; drag events every {args.interval_ms:g} ms, {args.steps} per drag")
+          f"{t_ready:.1f} s; {len(tabs)} tab(s); drag events every {args.interval_ms:g} ms, "
+          f"{args.steps} per drag")
     print()
     print(f"{'landmark':9s} {'median ms':>10s} {'p95 ms':>8s} {'updates/s':>10s} "
           f"{'KiB/update':>11s} {'final solve ms':>15s}")
@@ -145,6 +159,8 @@ def main() -> None:
     print("bytes by scene node over all drags (KiB):",
           ", ".join(f"{k} {v / 1024:.0f}" for k, v in
                     sorted(by_node.items(), key=lambda kv: -kv[1])[:6]))
+    for t in tabs:
+        t.close()
     app.close()
     server.stop()
 

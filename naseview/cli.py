@@ -107,7 +107,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="skip the stage-3 ablation rows (faster)")
     s.set_defaults(func=evaluate_command)
 
-    s = sub.add_parser("serve", help="open the 3D viewer / editor in the browser")
+    s = sub.add_parser("serve", help="open the 3D viewer / editor in the browser (one "
+                                     "view per tab, one simulation per patient)")
     s.add_argument("path", type=Path, nargs="?", default=None,
                    help="case directory, reconstruction directory or session file "
                         "(default: the bundled demo case)")
@@ -116,8 +117,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--port", type=int, default=8080)
     s.add_argument("--model", default=None, help="base face model for reconstruction")
     s.add_argument("--new", action="store_true",
-                   help="start with the new-patient page: upload four photos and click the "
-                        "landmarks (kept in $NASEVIEW_WORK_DIR or ~/naseview-patients)")
+                   help="start with the new-patient page (the demo case is not opened): "
+                        "upload four photos and click the landmarks (kept in "
+                        "$NASEVIEW_WORK_DIR or ~/naseview-patients)")
+    s.add_argument("--no-browser", action="store_true",
+                   help="do not open the page in the browser (just print its address)")
     s.set_defaults(func=serve_command)
 
     s = sub.add_parser("report", help="consultation report (self-contained HTML + PNGs) "

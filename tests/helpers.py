@@ -12,6 +12,7 @@ import time
 import zlib
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -37,6 +38,31 @@ def wait_for(cond: Callable[[], object], timeout: float, what: str) -> None:
             return
         time.sleep(0.02)
     raise AssertionError(f"timed out waiting for {what}")
+
+
+def open_tab(server: Any, app: Any, path: str = "/", timeout: float = 30.0
+             ) -> tuple[Any, Any]:
+    """A headless browser tab on ``server`` (:class:`naseview.app.headless_tab.HeadlessTab`)
+    and its :class:`~naseview.app.screen.Screen` in ``app``, once built (with its scene
+    when a case is open)."""
+    from naseview.app.headless_tab import HeadlessTab
+
+    tab = HeadlessTab(server, path)
+    wait_for(lambda: (s := app.screen_of(tab.client)) is not None
+             and (app.controller is None or s.shown.is_set()), timeout, "the tab's screen")
+    return tab, app.screen_of(tab.client)
+
+
+def project_to_view(camera: Any, X: np.ndarray) -> np.ndarray:
+    """Pixel (x, y) of world point X (3,) in a client's viewport (viser's OpenCV camera:
+    ``wxyz`` camera to world, vertical ``fov``)."""
+    from viser import transforms as vtf
+
+    R = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()            # camera -> world
+    pc = R.T @ (np.asarray(X, float) - np.asarray(camera.position))
+    h, w = camera.image_height, camera.image_width
+    f = (h / 2.0) / np.tan(camera.fov / 2.0)
+    return np.array([w / 2.0 + f * pc[0] / pc[2], h / 2.0 + f * pc[1] / pc[2]])
 
 
 CHROMIUM = "/usr/bin/chromium"

@@ -29,6 +29,12 @@ Navigation: a left-drag on the photo draws a box and zooms into it (it does not 
 which would tilt the photo), the wheel zooms, a right-drag pans; "Whole photo" / "Nose"
 re-frame. A click outside the photo is refused with a message.
 
+Per tab: the app builds one page per browser tab that asks for it, in that tab's client
+scope (:mod:`naseview.app.scope`): its panel, photo, rings and camera never reach another
+tab. Two tabs never annotate the same unfinished patient (``in_use``); the landmark
+diagrams are rendered once for all tabs (``diagrams``). Built on the server scope (no
+``client``), the page reaches every tab.
+
 Ordering: scene clicks arrive in an ``async`` callback (the event loop keeps their order)
 and are queued to one worker thread, so fast clicking never reorders landmarks.
 """
@@ -43,7 +49,7 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, cast
 
 import numpy as np
 import viser
@@ -51,9 +57,9 @@ import viser
 from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
 from naseview.app.landmark_diagrams import LandmarkDiagrams
-from naseview.app.patient_mode import PatientMode
 from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
 from naseview.app.photo_plane import PhotoPlane, disc_mesh, ring_mesh
+from naseview.app.scope import ClientAsServer, NoticeColor, Scope, clients_of, notify
 from naseview.app.upload_limit import UploadLimit
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
@@ -73,9 +79,6 @@ OTHER_HINT_RGB = (40, 200, 255)
 VIEW_BUTTONS = {"Front": "front", "Bottom": "bottom", "Left": "left", "Right": "right"}
 _UNSET = object()
 
-
-NoticeColor = Literal["blue", "red", "green"]
-"""Colours of the page's notifications."""
 
 GuiEvent = viser.GuiEvent[Any]
 """A GUI callback's event (``event.client`` is None for values the server assigns)."""
@@ -104,20 +107,32 @@ class AnnotatePage:
 
     Args:
         server: the ``viser.ViserServer`` (shared by the app).
-        app: the :class:`~naseview.app.serve.NaseviewApp` that opens the result, or
+        app: the tab (:class:`~naseview.app.screen.Screen`) that opens the result, or
             ``None`` (then "Reconstruct" only writes the case directory).
         work_dir: where patients are kept (default :func:`default_work_dir`).
         diagram_model: face model for the landmark diagrams (``None``: default model).
+        client: the tab the page lives in (``None``: every tab, on the server scope).
+        diagrams: landmark diagrams shared with other tabs' pages (default: new ones of
+            ``diagram_model``).
+        in_use: ``in_use(folder)`` is True when another tab annotates that unfinished
+            patient (never resumed here then).
     """
 
     def __init__(self, server: viser.ViserServer, app: AppHost | None = None,
                  work_dir: str | Path | None = None,
-                 diagram_model: FaceModel | str | None = None) -> None:
+                 diagram_model: FaceModel | str | None = None, *,
+                 client: viser.ClientHandle | None = None,
+                 diagrams: LandmarkDiagrams | None = None,
+                 in_use: Callable[[Path], bool] | None = None) -> None:
         self.server = server
+        self.client = client
+        self.scope: Scope = client if client is not None else server
+        self.gui = self.scope.gui
         self.app = app
+        self.in_use: Callable[[Path], bool] = in_use or (lambda folder: False)
         self.folders = PatientFolders(work_dir)
         self.work_dir = self.folders.root
-        self.diagrams = LandmarkDiagrams(diagram_model)
+        self.diagrams = diagrams if diagrams is not None else LandmarkDiagrams(diagram_model)
         self.session: AnnotationSession | None = None
         self.view = VIEW_ORDER[0]
         self.target: tuple[str, str] | None = None
@@ -146,7 +161,10 @@ class AnnotatePage:
         self._last_upload = 0.0
         self._taken_id: str | None = None      # an id typed that another patient has
         self._build_gui()
-        self.upload_limit = UploadLimit(server, MAX_UPLOAD_BYTES, self._on_upload_refused)
+        # a tab's upload buttons are buffered by that tab's GUI: the limit watches there
+        limited = server if client is None else cast(viser.ViserServer,
+                                                      ClientAsServer(client))
+        self.upload_limit = UploadLimit(limited, MAX_UPLOAD_BYTES, self._on_upload_refused)
         for btn in self.uploads.values():
             self.upload_limit.watch(btn)
         threading.Thread(target=self.diagrams.warm, name="naseview-diagrams",
@@ -154,7 +172,7 @@ class AnnotatePage:
 
     # GUI
     def _build_gui(self) -> None:
-        gui = self.server.gui
+        gui = self.gui
         self.panel = gui.add_panel(visible=False)
         self.panel.dock_left()
         self.panel.set_width(370)
@@ -310,7 +328,7 @@ class AnnotatePage:
             self._attach(self.session)
             return
         found = [a for a in self.folders.annotations()
-                 if not a.finished and a.problem is None]
+                 if not a.finished and a.problem is None and not self.in_use(a.folder)]
         if found:
             self.resume(found[0].folder)
         else:
@@ -342,8 +360,8 @@ class AnnotatePage:
             self.active = True
             self.panel.visible = True
             self.panel.expand()
-            self.server.gui.main_panel.minimize()
-            scene = self.server.scene
+            self.gui.main_panel.minimize()
+            scene = self.scope.scene
 
             # async: the event loop keeps the clicks in order (viser runs coroutine
             # callbacks too, though it declares plain ones)
@@ -372,22 +390,22 @@ class AnnotatePage:
                 return
             self.active = False
             if self._click_cb is not None:
-                self.server.scene.remove_click_callback(self._click_cb)
+                self.scope.scene.remove_click_callback(self._click_cb)
                 self._click_cb = None
             if self._rect_cb is not None:
-                self.server.scene.remove_rect_select_callback(self._rect_cb)
+                self.scope.scene.remove_rect_select_callback(self._rect_cb)
                 self._rect_cb = None
             for h in self._handles.values():
                 h.visible = False
             self.panel.visible = False
-            self.server.gui.main_panel.expand()
+            self.gui.main_panel.expand()
         # Bring the cameras back to the face first: from 100 m away, viser's separate
         # look_at / position updates of the app's camera placement end up misaligned.
         eye, target = (0.0, -40.0, 450.0), (0.0, -40.0, 0.0)
-        cam0 = self.server.initial_camera
+        cam0 = self.server.initial_camera          # new tabs' first view (Reset View)
         cam0.position, cam0.look_at, cam0.up = eye, target, (0.0, 1.0, 0.0)
         cam0.near, cam0.far = 1.0, 5000.0
-        for client in self.server.get_clients().values():
+        for client in clients_of(self.scope):
             with client.atomic():
                 client.camera.position = eye
                 client.camera.look_at = target
@@ -486,6 +504,9 @@ class AnnotatePage:
             self._offer_open(None)
             raise NaseviewError(f"no patient {cid!r} to open any more; type the id again")
         if found.annotation is not None:
+            if self.in_use(found.annotation):
+                raise NaseviewError(f"{cid} is being annotated in another tab; continue "
+                                    "there, or close that tab first")
             self.hide()
             self.resume(found.annotation)
         elif found.case_dir is not None and self.app is not None:
@@ -501,6 +522,9 @@ class AnnotatePage:
             if self._resume_label(a) == name:
                 if a.problem is not None:
                     raise NaseviewError(a.problem)
+                if self.in_use(a.folder):
+                    raise NaseviewError(f"{a.case_id} is being annotated in another tab; "
+                                        "continue there, or close that tab first")
                 self.hide()
                 self.resume(a.folder)
                 return
@@ -542,7 +566,7 @@ class AnnotatePage:
         self.view = view
         s.set_active_view(view)
         self.override = None
-        scene = self.server.scene
+        scene = self.scope.scene
         if view in s.photos:
             info = s.photos[view]
             plane = PhotoPlane(info.width, info.height)
@@ -565,7 +589,7 @@ class AnnotatePage:
     def fit_camera(self, clients: Iterable[viser.ClientHandle] | None = None) -> None:
         """Point every browser's camera straight at the photo, fitted to its window."""
         fit_photo(self.server, self.plane or PhotoPlane(4, 3),
-                  clients or self.server.get_clients().values())
+                  clients or clients_of(self.scope))
 
     def zoom_nose(self) -> None:
         """Frame the clicks and hints of this photo (the nose) with a margin; before
@@ -578,7 +602,7 @@ class AnnotatePage:
         if self.guidance is not None:
             pts += list(self.guidance.hints(self.view).values())
         lo, hi = nose_box(plane, pts)
-        frame_pixels(plane, lo, hi, self.server.get_clients().values())
+        frame_pixels(plane, lo, hi, clients_of(self.scope))
 
     def zoom_rect(self, client: viser.ClientHandle, screen_min: tuple[float, float],
                   screen_max: tuple[float, float]) -> None:
@@ -601,7 +625,7 @@ class AnnotatePage:
             self._handles.pop(key).remove()
         if self.plane is None:
             return
-        scene = self.server.scene
+        scene = self.scope.scene
         r = self.plane.marker_radius()
         order = CLICK_ORDER[self.view]
         n = len(order)
@@ -654,7 +678,7 @@ class AnnotatePage:
             hints = self.guidance.hints(self.view, set(clicks)) if self.guidance else {}
             hpos = np.array([plane.to_world(hints[i], 0.2)[0]
                              if i in hints and i != tgt else far for i in order])
-            with self.server.atomic():
+            with self.scope.atomic():
                 self._handles["clicks"].batched_positions = pos
                 self._handles["clicks"].batched_colors = cols
                 self._handles["grab"].batched_positions = grab
@@ -672,7 +696,7 @@ class AnnotatePage:
                        hints: dict[str, np.ndarray]) -> None:
         plane = self.plane
         assert plane is not None
-        scene = self.server.scene
+        scene = self.scope.scene
         want: dict[str, tuple[str, np.ndarray]] = {}
         if self.labels_cb.value:
             for i, xy in clicks.items():
@@ -1022,61 +1046,7 @@ class AnnotatePage:
 
     def notify(self, title: str, body: str, client: viser.ClientHandle | None = None,
                color: NoticeColor = "blue") -> None:
-        targets = [client] if client is not None else list(
-            self.server.get_clients().values())
-        for c in targets:
-            try:
-                c.add_notification(title, body, color=color, auto_close_seconds=5.0)
-            except Exception:  # client gone
-                pass
+        notify(self.scope, title, body, color, seconds=5.0, client=client)
 
 
-class NewPatientHook:
-    """What :func:`install_new_patient` adds to the app.
-
-    Attributes:
-        annotate: the :class:`AnnotatePage`.
-        patient: the :class:`~naseview.app.patient_mode.PatientMode`.
-    """
-
-    def __init__(self, annotate: AnnotatePage, patient: PatientMode) -> None:
-        self.annotate = annotate
-        self.patient = patient
-
-    def run(self, fn: Callable[[], object]) -> None:
-        """Run a button action; errors become a red notification."""
-        try:
-            fn()
-        except NaseviewError as e:
-            self.annotate.notify("naseview", str(e), color="red")
-        except Exception as e:
-            log.exception("naseview: action failed")
-            self.annotate.notify("naseview", f"{type(e).__name__}: {e}", color="red")
-
-    def close(self) -> None:
-        self.annotate.close()
-        self.patient._stop_turntable()
-
-
-def install_new_patient(server: viser.ViserServer, app: AppHost,
-                        work_dir: str | Path | None = None,
-                        diagram_model: FaceModel | str | None = None) -> NewPatientHook:
-    """Hook for :class:`~naseview.app.serve.NaseviewApp`: a "Patient" folder at the top of
-    the main panel (New patient, Patient mode, Consultation report) plus the two pages.
-    """
-    annotate = AnnotatePage(server, app, work_dir, diagram_model)
-    hook = NewPatientHook(annotate, PatientMode(server, app, annotate.work_dir))
-    gui = server.gui
-    with gui.add_folder("Patient", order=-100.0, expand_by_default=True):
-        new = gui.add_button("New patient: photos and landmarks", icon=viser.Icon.USER_PLUS,
-                             color="green")
-        pm = gui.add_button("Patient mode (presentation)", icon=viser.Icon.PRESENTATION)
-        rep = gui.add_button("Consultation report", icon=viser.Icon.FILE_TEXT)
-    new.on_click(lambda e: hook.run(annotate.show_start))
-    pm.on_click(lambda e: hook.run(hook.patient.enter))
-    rep.on_click(lambda e: hook.run(lambda: hook.patient.download_report(e.client)))
-    return hook
-
-
-__all__ = ["AnnotatePage", "LandmarkDiagrams", "NewPatientHook", "PhotoPlane",
-           "install_new_patient", "ring_mesh"]
+__all__ = ["AnnotatePage", "LandmarkDiagrams", "PhotoPlane", "ring_mesh"]

@@ -1,7 +1,10 @@
-"""What the app's pages (new patient, patient mode) need from the served app.
+"""What the app's pages (new patient, patient mode) need from the tab they live in.
 
-:class:`naseview.app.serve.NaseviewApp` is the one implementation; the pages see it
-through :class:`AppHost`, so that they do not import the module that builds them.
+:class:`naseview.app.screen.Screen` (one browser tab of
+:class:`naseview.app.serve.NaseviewApp`) is the one implementation; the pages see it
+through :class:`AppHost`, so that they do not import the module that builds them. The
+editor, case and photos are the patient's (shared by every tab); the scene, display
+toggles and camera are the tab's own.
 """
 
 from __future__ import annotations
@@ -15,15 +18,15 @@ from naseview.editing.controller import EditController
 
 
 class AppHost(Protocol):
-    """The served app, as the new-patient page and patient mode use it."""
+    """One tab of the served app, as the new-patient page and patient mode use it."""
 
     @property
     def controller(self) -> EditController | None:
-        """The editor of the open case (None before one is open)."""
+        """The editor of the open case, shared by every tab (None before one is open)."""
 
     @property
     def scene(self) -> FaceScene | None:
-        """The 3D scene of the open case (None before one is open)."""
+        """This tab's 3D scene of the open case (None before one is open)."""
 
     @property
     def case(self) -> Case | None:
@@ -38,10 +41,11 @@ class AppHost(Protocol):
         """Attribution line of the face model."""
 
     def open(self, path: Path | None) -> None:
-        """Open a case directory, reconstruction directory or session file."""
+        """Open a case directory, reconstruction directory or session file for the
+        patient (every tab shows it; errors are shown in this tab)."""
 
     def apply_display(self) -> None:
-        """Show the scene as the panel's display toggles say."""
+        """Show this tab's scene as its panel's display toggles say."""
 
     def reset_camera(self) -> None:
-        """Frame the nose in every browser."""
+        """Frame the nose in this tab."""

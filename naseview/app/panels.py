@@ -1,7 +1,7 @@
-"""GUI panels of the app (``server.gui``, shared by every browser on the server).
+"""GUI panels of the app: one control panel per browser tab (its client scope).
 
-:class:`Panels` builds the controls and forwards every action to the app object
-(:class:`PanelActions`, i.e. :class:`naseview.app.serve.NaseviewApp`): status and progress,
+:class:`Panels` builds the controls of one tab and forwards every action to that tab
+(:class:`PanelActions`, i.e. :class:`naseview.app.screen.Screen`): status and progress,
 editing (undo / redo / reset, symmetric mode), the measurements table, before / after,
 display toggles, parameters of stages 2 and 3 (paper §3.3-3.4), the photos with
 reprojected landmarks and residuals (stage 1, paper §3.2, eq. 1), and exports. Rendering
@@ -22,6 +22,7 @@ import viser
 from naseview.app.export import MESH_TYPES, measurements_markdown
 from naseview.app.gui_value import set_value
 from naseview.app.scene import colorbar_image
+from naseview.app.scope import Scope, notify
 from naseview.camera import Camera
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
@@ -155,7 +156,7 @@ def residual_markdown(residuals: Mapping[str, Mapping[str, float]],
 
 
 class PanelActions(Protocol):
-    """What the panel's controls call (:class:`naseview.app.serve.NaseviewApp`)."""
+    """What the panel's controls call (:class:`naseview.app.screen.Screen`)."""
 
     def undo(self) -> None: ...
     def redo(self) -> None: ...
@@ -171,12 +172,13 @@ class PanelActions(Protocol):
 
 
 class Panels:
-    """The control panel. ``app`` provides the actions (:class:`PanelActions`)."""
+    """The control panel of ``scope`` (one tab's client, or the server for every tab);
+    ``app`` provides the actions (:class:`PanelActions`)."""
 
-    def __init__(self, server: viser.ViserServer, app: PanelActions) -> None:
-        self.server = server
+    def __init__(self, scope: Scope, app: PanelActions) -> None:
+        self.scope = scope
         self.app = app
-        gui = server.gui
+        self.gui = gui = scope.gui
         gui.configure_theme(show_share_button=False, control_width="large",
                             brand_color=(190, 70, 60))
         gui.main_panel.dock_right()
@@ -261,10 +263,21 @@ class Panels:
                     self.show_error(f"{type(e).__name__}: {e}")
             return run
 
+        def user(fn: Callable[[viser.GuiEvent[Any]], None]
+                 ) -> Callable[[viser.GuiEvent[Any]], None]:
+            """Only changes made in the browser: a value the app assigns (to mirror the
+            patient's shared settings, ``client`` None) must not act again."""
+            inner = safe(fn)
+
+            def run(event: viser.GuiEvent[Any]) -> None:
+                if event.client is not None:
+                    inner(event)
+            return run
+
         self.undo.on_click(safe(lambda e: app.undo()))
         self.redo.on_click(safe(lambda e: app.redo()))
         self.reset.on_click(safe(lambda e: app.reset()))
-        self.symmetric.on_update(safe(lambda e: app.set_symmetric(self.symmetric.value)))
+        self.symmetric.on_update(user(lambda e: app.set_symmetric(self.symmetric.value)))
         self.labels.on_update(safe(lambda e: app.set_visible(labels=self.labels.value)))
         self.show_landmarks.on_update(
             safe(lambda e: app.set_visible(landmarks=self.show_landmarks.value)))
@@ -279,7 +292,8 @@ class Panels:
         self.colormap.on_update(safe(lambda e: app.set_view(colormap=self.colormap.value)))
         self.photo_view.on_update(safe(lambda e: app.show_photo(self.photo_view.value)))
         self.recompute.on_click(safe(lambda e: app.recompute()))
-        self.interactive_iters.on_update(safe(lambda e: app.params_changed("app")))
+        self.interactive_iters.on_update(user(lambda e: app.params_changed("app")))
+
         def mesh_download(file_type: str) -> Callable[[viser.GuiEvent[Any]], None]:
             return lambda e: app.download(e.client, "mesh", file_type,
                                           part=self.export_part.value,
@@ -325,8 +339,8 @@ class Panels:
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 continue
             step = 1 if isinstance(v, int) else _step(float(v))
-            h = self.server.gui.add_number(label, v, min=0, step=step,
-                                           hint=f"{type(obj).__name__}.{name}")
+            h = self.gui.add_number(label, v, min=0, step=step,
+                                    hint=f"{type(obj).__name__}.{name}")
             h.on_update(lambda e: self.app.params_changed(stage))
             out[name] = h
         return out
@@ -348,19 +362,16 @@ class Panels:
         set_value(self.progress, float(np.clip(fraction * 100.0, 0.0, 100.0)))
         self.progress.visible = True
 
-    def show_error(self, message: str | None) -> None:
-        """A red error line in the page (``None`` clears it), and a notification."""
+    def show_error(self, message: str | None, notify_tab: bool = True) -> None:
+        """A red error line in the page (``None`` clears it), and a notification unless
+        ``notify_tab`` is False."""
         if not message:
             self.error.visible = False
             return
         self.error.content = f"<span style='color:#c0392b'>**Error:** {message}</span>"
         self.error.visible = True
-        for client in self.server.get_clients().values():
-            try:
-                client.add_notification("naseview", message, color="red",
-                                        auto_close_seconds=8.0)
-            except Exception:  # client gone
-                pass
+        if notify_tab:
+            notify(self.scope, "naseview", message, color="red", seconds=8.0)
 
     def set_history(self, can_undo: bool, can_redo: bool, edited: bool) -> None:
         self.undo.disabled = not can_undo

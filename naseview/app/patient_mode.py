@@ -8,7 +8,12 @@ reconstruction and the simulation, large 3D labels with the key measurements (be
 after) and the sentence "A simulation is not a promised outcome." A button writes the
 consultation report (:mod:`naseview.report`) and downloads it.
 
-Leaving patient mode restores the app's display settings from its panel. The before /
+Patient mode belongs to one browser tab (its client scope, :mod:`naseview.app.scope`):
+its panel, labels, slider and turntable camera never reach another tab. The face it shows
+is the patient's one simulation, so a patient screen (a second tab in patient mode)
+follows the surgeon's edits live (:meth:`PatientMode.refresh` after each solve).
+
+Leaving patient mode restores the tab's display settings from its panel. The before /
 after blend is linear between the reconstruction (stage 3, paper §3.4) and its edit.
 """
 
@@ -20,14 +25,14 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 import viser
 
 from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
-from naseview.app.scene import FaceScene
+from naseview.app.scene import FaceScene, blend
+from naseview.app.scope import NoticeColor, Scope, clients_of, notify
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
@@ -46,12 +51,6 @@ KEY_MEASUREMENTS: tuple[tuple[str, str], ...] = (
     ("tip_projection", "Tip projection"),
 )
 """Measurements shown as large labels: (name, short title)."""
-
-
-def blend(V0: np.ndarray, V1: np.ndarray, t: float) -> np.ndarray:
-    """(N, 3) vertices ``(1 - t) V0 + t V1`` (before -> after, t in [0, 1])."""
-    t = float(np.clip(t, 0.0, 1.0))
-    return (1.0 - t) * np.asarray(V0, np.float64) + t * np.asarray(V1, np.float64)
 
 
 def turntable_eye(target: np.ndarray, distance: float, seconds: float,
@@ -83,13 +82,15 @@ class PatientMode:
     """The presentation view of the app's current case.
 
     Args:
-        server: the ``viser.ViserServer``.
-        app: the :class:`~naseview.app.serve.NaseviewApp` whose scene and editor are shown.
+        scope: the tab (``viser.ClientHandle``) whose view it takes over, or the server
+            (every tab).
+        app: the tab (:class:`~naseview.app.screen.Screen`) whose scene and editor are
+            shown.
         work_dir: where reports are written (``<work_dir>/<case id>/report/``).
     """
 
-    def __init__(self, server: viser.ViserServer, app: AppHost, work_dir: str | Path) -> None:
-        self.server = server
+    def __init__(self, scope: Scope, app: AppHost, work_dir: str | Path) -> None:
+        self.scope = scope
         self.app = app
         self.work_dir = Path(work_dir)
         self.active = False
@@ -98,7 +99,7 @@ class PatientMode:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.RLock()
-        gui = server.gui
+        self.gui = gui = scope.gui
         self.panel = gui.add_panel(visible=False)
         self.panel.dock_left()
         self.panel.set_width(340)
@@ -130,13 +131,9 @@ class PatientMode:
             log.exception("naseview: patient mode action failed")
             self._notify(f"{type(e).__name__}: {e}", "red")
 
-    def _notify(self, body: str, color: Literal["blue", "red", "green"] = "blue",
+    def _notify(self, body: str, color: NoticeColor = "blue",
                 client: viser.ClientHandle | None = None) -> None:
-        for c in ([client] if client is not None else self.server.get_clients().values()):
-            try:
-                c.add_notification("naseview", body, color=color, auto_close_seconds=6.0)
-            except Exception:
-                pass
+        notify(self.scope, "naseview", body, color, client=client)
 
     def _state(self) -> tuple[EditController, FaceScene, Baseline]:
         """The app's editor, scene and baseline (raises when no case is open)."""
@@ -162,23 +159,34 @@ class PatientMode:
             scene.set_visible(labels=False, curves=False, ad_landmarks=False, cameras=False,
                               landmarks=False, highlight=False)
             scene.set_view(colormap=False, original=False, overlay=False)
-            self.server.gui.main_panel.minimize()
+            self.gui.main_panel.minimize()
             self.panel.visible = True
             self.panel.expand()
-            before, after = self._measurements()
-            cid = self.app.case_id
-            self.title.content = (f"<div style='font-size:20px;font-weight:600'>{cid}</div>"
-                                  + ("<div style='color:#666'>Drag the slider to compare "
-                                     "before and after</div>" if after else
-                                     "<div style='color:#666'>No simulation yet: showing the "
-                                     "reconstruction</div>"))
-            self.slider.disabled = after is None
-            self.table.content = self._table_html(before, after)
-            self._make_labels(before, after)
+            self._present()
             self.t = 1.0
             set_value(self.slider, 1.0)
         self.set_blend(1.0)
         self._turntable_changed()
+
+    def refresh(self) -> None:
+        """After a solve (an edit in any tab): the title, measurements and labels of the
+        new simulation; the face itself follows through the scene."""
+        with self._lock:
+            if self.active and self.app.scene is not None:
+                self._present()
+
+    def _present(self) -> None:
+        """Title, slider state, measurement table and 3D labels of the current state."""
+        before, after = self._measurements()
+        cid = self.app.case_id
+        self.title.content = (f"<div style='font-size:20px;font-weight:600'>{cid}</div>"
+                              + ("<div style='color:#666'>Drag the slider to compare "
+                                 "before and after</div>" if after else
+                                 "<div style='color:#666'>No simulation yet: showing the "
+                                 "reconstruction</div>"))
+        self.slider.disabled = after is None
+        self.table.content = self._table_html(before, after)
+        self._make_labels(before, after)
 
     def exit(self) -> None:
         """Back to the editor with its display settings."""
@@ -187,14 +195,12 @@ class PatientMode:
                 return
             self.active = False
             self._stop_turntable()
-            for h in self._labels:
-                try:
-                    h.remove()
-                except Exception:
-                    pass
-            self._labels = []
+            self._remove_labels()
             self.panel.visible = False
-            self.server.gui.main_panel.expand()
+            self.gui.main_panel.expand()
+            scene = self.app.scene
+            if scene is not None:
+                scene.set_blend(1.0)
         self.app.apply_display()
         try:
             self.app.reset_camera()
@@ -203,16 +209,20 @@ class PatientMode:
 
     # before / after
     def set_blend(self, t: float) -> None:
-        """Show the nose ``t`` of the way from before (0) to after (1)."""
-        ctl, scene, base = self._state()
+        """Show the nose ``t`` of the way from before (0) to after (1) in this tab (the
+        scene keeps ``t`` while edits arrive from other tabs)."""
+        _, scene, _ = self._state()
         self.t = float(np.clip(t, 0.0, 1.0))
         if abs(float(self.slider.value) - self.t) > 1e-9:
             set_value(self.slider, self.t)  # its callback calls back here: same t, no-op
-        V = blend(base.V, ctl.simulation.V, self.t)
-        with self.server.atomic():
-            scene.nose.vertices = V[scene.nose_ids]
-            if np.any(ctl.simulation.V[scene.rest_ids] != base.V[scene.rest_ids]):
-                scene.rest.vertices = V[scene.rest_ids]
+        scene.set_blend(self.t)
+
+    def close(self) -> None:
+        """The tab went away: stop the turntable (its labels went with the tab)."""
+        with self._lock:
+            self.active = False
+            self._stop_turntable()
+            self._labels = []
 
     # labels
     def _table_html(self, before: dict[str, float], after: dict[str, float] | None) -> str:
@@ -228,11 +238,17 @@ class PatientMode:
         return "<table style='font-size:16px;border-collapse:collapse'>" + "".join(rows) \
             + "</table>"
 
+    def _remove_labels(self) -> None:
+        for h in self._labels:
+            try:
+                h.remove()
+            except Exception:  # the scene it was in was rebuilt
+                log.debug("naseview: label already gone", exc_info=True)
+        self._labels = []
+
     def _make_labels(self, before: dict[str, float], after: dict[str, float] | None) -> None:
         _, scene, base = self._state()
-        for h in self._labels:
-            h.remove()
-        self._labels = []
+        self._remove_labels()
         L = base.landmarks
         # on the cheek beside the nose, on the subject's left (image right from the front,
         # away from the docked panel), at the height of what each one measures: the nose
@@ -285,14 +301,14 @@ class PatientMode:
             t0 = time.monotonic()
             while not self._stop.wait(1.0 / TURNTABLE_HZ):
                 eye = turntable_eye(target, distance, time.monotonic() - t0)
-                for c in list(self.server.get_clients().values()):
+                for c in clients_of(self.scope):   # this tab only
                     try:
                         with c.atomic():
                             c.camera.position = tuple(eye)   # then look_at (viser
                             c.camera.look_at = tuple(target)  # shifts it with position)
                             c.camera.up_direction = (0.0, 1.0, 0.0)
-                    except Exception:
-                        pass
+                    except Exception:  # the tab closed: close() stops this thread
+                        log.debug("naseview: turntable camera not set", exc_info=True)
 
         self._thread = threading.Thread(target=run, name="naseview-turntable", daemon=True)
         self._thread.start()
@@ -344,7 +360,7 @@ class PatientMode:
         def job() -> None:
             try:
                 path = self.write_report()
-                target = client if client is not None else self.server
+                target = client if client is not None else self.scope
                 target.send_file_download(path.name, path.read_bytes(),
                                           save_immediately=True)
                 self._notify(f"Report saved: {path}", "green", client)

@@ -1,6 +1,9 @@
-"""The 3D scene of the app: face, nose, landmarks, curves, ad-landmarks, cameras.
+"""The 3D scene of one browser tab: face, nose, landmarks, curves, ad-landmarks, cameras.
 
-Everything lives in the SPEC frame (mm, +y up). The face is split in two meshes so that a
+Each tab has its own :class:`FaceScene` in its client scope (:mod:`naseview.app.scope`),
+subscribed to the patient's one :class:`EditController`: an edit in any tab shows in every
+tab, while what each tab shows (toggles, before / after, the patient-mode blend) is its
+own. Everything lives in the SPEC frame (mm, +y up). The face is split in two meshes so that a
 live update sends only the nose: ``/face/rest`` (static) and ``/face/nose`` (every triangle
 touching the nose region; its outer ring never moves, so there is no crack). The
 landmarks are two batched sphere meshes: the editable ones (inside the nose region) take
@@ -27,6 +30,7 @@ import numpy as np
 import viser
 from viser import transforms as vtf
 
+from naseview.app.scope import Scope
 from naseview.camera import Camera
 from naseview.editing.baseline import Landmarks, Simulation
 from naseview.editing.controller import EditController
@@ -216,6 +220,12 @@ def vertex_color_glb(V: np.ndarray, F: np.ndarray, colors: np.ndarray) -> bytes:
     return struct.pack("<III", 0x46546C67, 2, 12 + len(body)) + body
 
 
+def blend(V0: np.ndarray, V1: np.ndarray, t: float) -> np.ndarray:
+    """(N, 3) vertices ``(1 - t) V0 + t V1`` (mm; before -> after, t in [0, 1])."""
+    t = float(np.clip(t, 0.0, 1.0))
+    return (1.0 - t) * np.asarray(V0, np.float64) + t * np.asarray(V1, np.float64)
+
+
 def signed_displacement(V0: np.ndarray, V: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """(N,) displacement along the outward normal, mm: + outwards (augmentation),
     - inwards (reduction). ``V0``, ``V``, ``normals`` are (N, 3)."""
@@ -284,8 +294,8 @@ class FaceScene:
     """Viser handles of one baseline, updated from an :class:`EditController`.
 
     Args:
-        server: the ``viser.ViserServer`` (its shared ``server.scene`` reaches every
-            browser).
+        scope: where the nodes live: a ``viser.ClientHandle`` (one tab) or the
+            ``viser.ViserServer`` (every tab).
         controller: the editor.
         editable: landmark ids that can be dragged (inside the deforming region).
         cameras: view -> camera of the reconstruction (frustums), may be empty.
@@ -294,12 +304,12 @@ class FaceScene:
             mesh is every triangle touching them.
     """
 
-    def __init__(self, server: viser.ViserServer, controller: EditController,
+    def __init__(self, scope: Scope, controller: EditController,
                  editable: Sequence[str], cameras: Mapping[str, Camera] | None = None,
                  photos: Mapping[str, np.ndarray] | None = None,
                  region: np.ndarray | None = None) -> None:
-        self.server = server
-        self.scene = server.scene
+        self.scope = scope
+        self.scene = scope.scene
         self.ctl = controller
         base = controller.baseline
         self.base = base
@@ -314,6 +324,7 @@ class FaceScene:
         self.show_original = False
         self.show_overlay = False
         self.highlight = True
+        self.blend = 1.0
         self.colormap_limit = 0.0
         self._last_colormap = 0.0
         self._active: dict[int, tuple[str, np.ndarray]] = {}
@@ -486,11 +497,27 @@ class FaceScene:
             if h.visible:
                 h.position = lms[i] + np.array([0.0, 1.6, 0.0])
 
+    def shown_vertices(self, sim: Simulation) -> np.ndarray:
+        """(N, 3) vertices shown for ``sim`` (mm): the simulation, or ``blend`` of the way
+        from the reconstruction to it (patient mode's before / after slider)."""
+        return sim.V if self.blend >= 1.0 else blend(self.base.V, sim.V, self.blend)
+
+    def set_blend(self, t: float) -> None:
+        """Show the face ``t`` (0..1) of the way from before to after, in this scope."""
+        with self._lock:
+            self.blend = float(np.clip(t, 0.0, 1.0))
+            sim = self.ctl.simulation
+            V = self.shown_vertices(sim)
+            with self.scope.atomic():
+                self.nose.vertices = V[self.nose_ids]
+                if np.any(sim.V[self.rest_ids] != self.base.V[self.rest_ids]):
+                    self.rest.vertices = V[self.rest_ids]
+
     def update(self, sim: Simulation) -> None:
         """Push a solved state: nose vertices, curves, ad-landmarks (and the colour map)."""
         with self._lock:
-            V = sim.V
-            with self.server.atomic():
+            V = self.shown_vertices(sim)
+            with self.scope.atomic():
                 if not self.show_original:
                     self.nose.vertices = V[self.nose_ids]
                 if np.any(V[self.rest_ids] != self.base.V[self.rest_ids]):
@@ -536,7 +563,8 @@ class FaceScene:
                 self.show_original = original
             if overlay is not None:
                 self.show_overlay = overlay
-            V = self.base.V if self.show_original else self.ctl.simulation.V
+            V = self.base.V if self.show_original else self.shown_vertices(
+                self.ctl.simulation)
             self.nose.vertices = V[self.nose_ids]
             if self.outline is not None:
                 self.outline.points = self._outline_points(V)

@@ -1,12 +1,15 @@
 """``naseview serve``: the browser app (viser) around an :class:`EditController`.
 
 :class:`NaseviewApp` opens a case directory (reconstructed in the background by the
-pipeline, stages 1-3 of the paper, with progress in the page), a reconstruction directory
-(``reconstruction.json`` + ``face.ply`` + ``nose.ply``) or a session file, builds the shared
-scene (:mod:`naseview.app.scene`) and panels (:mod:`naseview.app.panels`), and serves every
-browser that connects; all of them see the same case and each other's edits. Dragging a
-landmark re-runs stage 3's ARAP deformation (paper §3.4) through
-:mod:`naseview.editing`.
+pipeline, stages 1-3 of the paper, with progress in every tab), a reconstruction directory
+(``reconstruction.json`` + ``face.ply`` + ``nose.ply``) or a session file, and serves every
+browser tab that connects. The case, its one editor (the patient's simulation) and the
+background jobs are shared; each tab is a :class:`~naseview.app.screen.Screen` with its
+own panels (:mod:`naseview.app.panels`), scene (:mod:`naseview.app.scene`), camera and
+patient mode, so every tab sees the same simulation and each other's edits, never each
+other's view. Dragging a landmark re-runs stage 3's ARAP deformation (paper §3.4) through
+:mod:`naseview.editing`. ``naseview serve`` opens the page in the browser unless
+``--no-browser``; ``--new`` opens nothing and starts every tab on the new-patient page.
 
 Security: binds 127.0.0.1 unless ``--host`` says otherwise; the server
 (:func:`naseview.app.guard.guarded_viser_server`) answers only its own page on its own host
@@ -22,6 +25,7 @@ import logging
 import threading
 import time
 import traceback
+import webbrowser
 from collections.abc import Callable, Mapping
 from dataclasses import fields, replace
 from pathlib import Path
@@ -31,7 +35,6 @@ import cv2
 import numpy as np
 import viser
 
-from naseview.app.annotate_page import NewPatientHook, install_new_patient
 from naseview.app.export import (
     landmarks_csv,
     landmarks_json,
@@ -41,18 +44,12 @@ from naseview.app.export import (
 )
 from naseview.app.guard import guarded_viser_server
 from naseview.app.gui_value import set_value
-from naseview.app.panels import (
-    Panels,
-    annotate_photo,
-    click_residuals,
-    flag_threshold,
-    residual_markdown,
-)
-from naseview.app.scene import NOSE, SKIN, FaceScene, nice_limit, signed_displacement
+from naseview.app.landmark_diagrams import LandmarkDiagrams
+from naseview.app.screen import PATIENT_SCREEN_PATH, Screen, connection_path, nose_view
+from naseview.camera import Camera
 from naseview.case import Case, read_case
 from naseview.editing.baseline import (
     Baseline,
-    Simulation,
     Solver,
     baseline_from_output_dir,
     baseline_from_pipeline,
@@ -63,6 +60,7 @@ from naseview.editing.solver import NoseEditSolver
 from naseview.errors import NaseviewError
 from naseview.facemodel import store
 from naseview.facemodel.ict import ICT_CREDIT
+from naseview.intake.patients import PatientFolders
 from naseview.pipeline import PipelineParams, PipelineResult, reconstruct
 from naseview.reconstruction import output_case_dir
 from naseview.stage1_landmarks import SfmResult
@@ -81,6 +79,9 @@ STAGE_LABELS: dict[int, str] = {1: "landmarks (bundle adjustment)", 2: "curves",
 
 SHUTDOWN_WAIT_S = 60.0
 """Ctrl-C: how long ``naseview serve`` waits for a running reconstruction to finish."""
+
+DRAG_ITERATIONS = 6
+"""ARAP iterations per update during a drag (the panel's starting value)."""
 
 _P = TypeVar("_P", CurveParams, RefineParams)
 
@@ -153,48 +154,143 @@ def _suspect_messages(sfm: SfmResult | None) -> list[str]:
 
 
 class NaseviewApp:
-    """The served app: one case, one editor, every browser.
+    """The served app: the patient's case, editor and background jobs, and one
+    :class:`~naseview.app.screen.Screen` per browser tab.
+
+    Every tab gets its own panels, scene, camera and patient mode (built when it connects,
+    released when it goes); all of them show the one case and its one simulation, so an
+    edit, Undo, Redo or Reset in any tab shows in every tab. Job progress and status
+    reach every tab; a job's error is shown in the tab that started it.
 
     Args:
         server: a ``viser.ViserServer``.
         model: face model name for reconstruction (``None``: ICT if installed).
         solver_factory: ``(baseline, refine_params, interactive_iterations) -> (solver,
             editable ids, moving vertex ids)``; default :class:`NoseEditSolver`.
+        work_dir: where new patients are kept (default ``$NASEVIEW_WORK_DIR`` or
+            ``~/naseview-patients``).
     """
 
     def __init__(self, server: viser.ViserServer, model: str | None = None,
-                 solver_factory: SolverFactory | None = None) -> None:
+                 solver_factory: SolverFactory | None = None,
+                 work_dir: str | Path | None = None) -> None:
         self.server = server
         self.model = model
         self.solver_factory: SolverFactory = solver_factory or _default_solver_factory
         self.controller: EditController | None = None
-        self.scene: FaceScene | None = None
         self.case: Case | None = None
         self.case_id = "case"
         self.source: Path | None = None
         self.credit = ""
         self.curve_params = CurveParams()
         self.refine_params = RefineParams()
+        self.interactive_iterations = DRAG_ITERATIONS
         self.suspect_messages: list[str] = []
+        self.photos_note = "No photos: the case directory is not available."
+        self.edit_help = ""
+        # what every tab's scene is built from (set by an install)
+        self.editable: list[str] = []
+        self.moving = np.zeros(0, dtype=np.int64)
+        self.cameras: dict[str, Camera] = {}
+        self.photos: dict[str, np.ndarray] = {}
+        self.start_new_patient = False
+        """A tab that connects while no case is open starts on the new-patient page."""
+        self.work_dir = PatientFolders(work_dir).root
+        self.diagrams = LandmarkDiagrams(model)
+        self.screens: dict[int, Screen] = {}
+        self.status = "Starting…"
+        self.progress: float | None = None
+        self._symmetric = False
         self._job_lock = threading.Lock()
         self._job_seq = 0
         self._param_timer: threading.Timer | None = None
+        self._param_asker: Screen | None = None
         self._changed_stages: set[str] = set()
         self._fresh = True
+        self._closed = False
         self._lock = threading.RLock()
-        self._edit_help = ""
         self._ready = threading.Event()
         server.scene.set_up_direction("+y")
-        self.panels = Panels(server, self)
-        self.panels.build_params(self.curve_params, self.refine_params)
-        self.new_patient: NewPatientHook = install_new_patient(server, self,
-                                                               diagram_model=model)
+        server.on_client_connect(self._connect)
+        server.on_client_disconnect(self._disconnect)
+
+    # tabs
+    def _connect(self, client: viser.ClientHandle) -> None:
+        """A tab connected: its screen, showing the case (or the new-patient page)."""
+        patient = connection_path(self.server, client) == PATIENT_SCREEN_PATH
+        with self._lock:
+            if self._closed:
+                return
+            try:
+                screen = Screen(self, client, patient_screen=patient)
+                screen.set_status(self.status)
+                screen.set_progress(self.progress)
+                if client.client_id not in self.server.get_clients():
+                    screen.close()                    # it went while being built
+                    return
+                self.screens[client.client_id] = screen
+                if self.controller is not None:
+                    screen.show_case()
+                elif self.start_new_patient and self.controller is None and not patient:
+                    screen.show_new_patient()
+            except Exception:  # a tab that vanished mid-build must not break the server
+                log.warning("naseview: a tab could not be set up:\n%s",
+                            traceback.format_exc())
+
+    def _disconnect(self, client: viser.ClientHandle) -> None:
+        """A tab went away: release its screen (listeners, turntable, page threads)."""
+        with self._lock:
+            screen = self.screens.pop(client.client_id, None)
+        if screen is not None:
+            screen.close()
+
+    def screen_of(self, client: viser.ClientHandle | int) -> Screen | None:
+        """The screen of a tab (a client or its id), None when it is gone."""
+        cid = client if isinstance(client, int) else client.client_id
+        return self.screens.get(cid)
+
+    def _each_screen(self, fn: Callable[[Screen], None]) -> None:
+        """``fn(screen)`` for every open tab; a tab that fails (gone) is skipped."""
+        for screen in list(self.screens.values()):
+            try:
+                fn(screen)
+            except Exception:
+                log.debug("naseview: a tab did not take an update", exc_info=True)
+
+    def set_status(self, text: str) -> None:
+        """The status line of every tab (and of tabs that connect later)."""
+        self.status = text
+        self._each_screen(lambda s: s.set_status(text))
+
+    def set_progress(self, fraction: float | None) -> None:
+        """The progress bar of every tab (``None`` hides it)."""
+        self.progress = fraction
+        self._each_screen(lambda s: s.set_progress(fraction))
+
+    def show_error(self, message: str | None, asker: Screen | None = None) -> None:
+        """An error in the tab that asked (when it is still open), else in every tab;
+        ``None`` clears the error line everywhere."""
+        if message and asker is not None and not asker.closed:
+            asker.show_error(message)
+            return
+        self._each_screen(lambda s: s.show_error(message))
+
+    def annotated_elsewhere(self, folder: Path, screen: Screen) -> bool:
+        """Whether a tab other than ``screen`` annotates the unfinished patient in
+        ``folder`` (two tabs never write one annotation)."""
+        for other in list(self.screens.values()):
+            page = other.annotate
+            if other is screen or page is None or page.session is None:
+                continue
+            if Path(page.session.folder).resolve() == Path(folder).resolve():
+                return True
+        return False
 
     # opening
-    def open(self, path: Path | None) -> None:
+    def open(self, path: Path | None, asker: Screen | None = None) -> None:
         """Open a case directory, a reconstruction directory or a session file
-        (``None``: the bundled demo case). Case directories reconstruct in the
-        background."""
+        (``None``: the bundled demo case) for every tab; ``asker`` is the tab that
+        asked (it gets the errors). Case directories reconstruct in the background."""
         self._fresh = True  # a new case: new editor (a recompute keeps the edits)
         if path is None:
             path = demo_case_dir()
@@ -204,34 +300,34 @@ class NaseviewApp:
         path = Path(path)
         self.source = path
         if path.is_file() and is_session_file(path):
-            self._open_session(path)
+            self._open_session(path, asker)
         elif path.is_file():
             raise NaseviewError(f"{path}: not a naseview session file (format "
                                 "'naseview.session/1'); pass a case directory, a "
                                 "reconstruction directory or a session .json")
         elif (path / "reconstruction.json").is_file():
-            self._open_reconstruction(path)
+            self._open_reconstruction(path, asker)
         elif (path / "case.json").is_file():
             self.case = read_case(path)
             self.case_id = self.case.id
-            self.reconstruct()
+            self.reconstruct(asker)
         else:
             raise NaseviewError(f"{path}: no case.json, reconstruction.json or session "
                                 "file here; pass a case directory (SPEC §3), a `naseview "
                                 "reconstruct` output directory or a session file")
 
-    def _open_session(self, path: Path) -> None:
+    def _open_session(self, path: Path, asker: Screen | None) -> None:
         """A saved session: its baseline and edits exactly, photos from its case."""
         session = load_session(path)
         self._open_case_from(session.case_folder)
         self.case_id = str(session.app.get("case_id", path.stem))
         self.credit = str(session.app.get("credit", ""))
         self._apply_param_values(session.app.get("params", {}), str(path))
-        self.panels.set_status(f"Session **{path.name}** ({self.case_id})")
+        self.set_status(f"Session **{path.name}** ({self.case_id})")
         self._start_job(lambda seq: self._install(session.baseline, session, seq),
-                        "Opening session")
+                        "Opening session", asker)
 
-    def _open_reconstruction(self, path: Path) -> None:
+    def _open_reconstruction(self, path: Path, asker: Screen | None) -> None:
         """``naseview reconstruct`` output: its baseline, photos from the case it names."""
         baseline = baseline_from_output_dir(path)
         rec = baseline.reconstruction
@@ -240,8 +336,8 @@ class NaseviewApp:
         self.case_id = self.case.id if self.case is not None else path.name
         mesh = rec.extra.get("mesh", {}) if rec else {}
         self.credit = str(mesh.get("credit", "") if isinstance(mesh, dict) else "")
-        self.panels.set_status(f"Reconstruction **{path.name}**")
-        self._start_job(lambda seq: self._install(baseline, None, seq), "Loading")
+        self.set_status(f"Reconstruction **{path.name}**")
+        self._start_job(lambda seq: self._install(baseline, None, seq), "Loading", asker)
 
     def open_baseline(self, baseline: Baseline, case: Case | None = None,
                       case_id: str = "case", credit: str = "") -> None:
@@ -265,46 +361,49 @@ class NaseviewApp:
         """Photos of the case directory ``find()`` names, checked to stay inside its
         folder (optional for editing)."""
         self.case = None
+        self.photos_note = "No photos: the case directory is not available."
         try:
             case_dir = find()
             if case_dir is not None:
                 self.case = read_case(case_dir)
         except NaseviewError as e:  # photos are optional for editing
             log.warning("naseview: photos unavailable: %s", e)
-            self.panels.residuals.content = f"Photos unavailable: {e}"
+            self.photos_note = f"Photos unavailable: {e}"
 
     # background jobs
-    def _start_job(self, fn: Callable[[int], None], label: str) -> None:
-        """Run ``fn(seq)`` on a background thread; a later job supersedes it."""
+    def _start_job(self, fn: Callable[[int], None], label: str,
+                   asker: Screen | None = None) -> None:
+        """Run ``fn(seq)`` on a background thread; a later job supersedes it. Progress
+        goes to every tab, an error to ``asker`` (the tab that asked) when it is open."""
         with self._job_lock:
             self._job_seq += 1
             seq = self._job_seq
             self._ready.clear()
 
         def run() -> None:
-            self.panels.set_progress(0.02)
-            self.panels.set_status(f"{label}…")
+            self.set_progress(0.02)
+            self.set_status(f"{label}…")
             try:
                 fn(seq)
             except Exception as e:
                 log.error("naseview: %s failed:\n%s", label, traceback.format_exc())
                 if seq == self._job_seq:
                     msg = str(e) if isinstance(e, NaseviewError) else f"{type(e).__name__}: {e}"
-                    self.panels.show_error(f"{label} failed: {msg}")
-                    self.panels.set_status(f"{label} failed.")
+                    self.show_error(f"{label} failed: {msg}", asker)
+                    self.set_status(f"{label} failed.")
             finally:
                 if seq == self._job_seq:
-                    self.panels.set_progress(None)
+                    self.set_progress(None)
                     self._ready.set()
 
         threading.Thread(target=run, name=f"naseview-{label}", daemon=True).start()
 
-    def reconstruct(self) -> None:
-        """Run the pipeline on the case in the background (progress in the page)."""
+    def reconstruct(self, asker: Screen | None = None) -> None:
+        """Run the pipeline on the case in the background (progress in every tab)."""
         if self.case is None:
             raise NaseviewError("no case directory is open; recompute needs the photos "
                                 "and clicks (open the case directory)")
-        self._start_job(self._reconstruct_job, "Reconstruction")
+        self._start_job(self._reconstruct_job, "Reconstruction", asker)
 
     def _reconstruct_job(self, seq: int) -> None:
         assert self.case is not None
@@ -316,12 +415,12 @@ class NaseviewApp:
             if seq != self._job_seq:
                 return
             done.append(f"{stage} {seconds:.1f} s")
-            self.panels.set_progress(0.05 + 0.85 * len(done) / len(stages))
+            self.set_progress(0.05 + 0.85 * len(done) / len(stages))
             nxt = STAGE_LABELS.get(len(done) + 1)
-            self.panels.set_status("Reconstruction: " + ", ".join(done)
-                                   + (f"; running {nxt}…" if nxt else "; building the editor…"))
+            self.set_status("Reconstruction: " + ", ".join(done)
+                            + (f"; running {nxt}…" if nxt else "; building the editor…"))
 
-        self.panels.set_status(f"Reconstruction: running {STAGE_LABELS[1]}…")
+        self.set_status(f"Reconstruction: running {STAGE_LABELS[1]}…")
         t0 = time.perf_counter()
         result = reconstruct(self.case, self.model, stages,
                              PipelineParams(curves=self.curve_params, refine=self.refine_params),
@@ -331,7 +430,7 @@ class NaseviewApp:
         self.suspect_messages = _suspect_messages(result.sfm)
         self.credit = _credit(self.model, result)
         baseline = baseline_from_pipeline(result)
-        self.panels.set_progress(0.92)
+        self.set_progress(0.92)
         self._install(baseline, None, seq)
         took = time.perf_counter() - t0
         lines = [f"Reconstructed **{self.case_id}** in {took:.1f} s"]
@@ -339,29 +438,39 @@ class NaseviewApp:
         if rmse is not None:
             lines[0] += f", reprojection RMS {rmse:.2f} px"
         lines += [f"- {w}" for w in list(result.warnings)[:6]]
-        self.panels.set_status("\n".join(lines))
+        self.set_status("\n".join(lines))
 
     # installing
     def _install(self, baseline: Baseline, session: Session | None, seq: int) -> None:
-        """Build the solver, controller and scene for ``baseline`` (job thread)."""
+        """Build the solver and controller for ``baseline``, then every tab's scene (job
+        thread)."""
         solver, editable, moving = self.solver_factory(
-            baseline, self.refine_params, int(self.panels.interactive_iters.value))
+            baseline, self.refine_params, int(self.interactive_iterations))
         if seq != self._job_seq:
             return
         with self._lock:
-            if self.scene is not None:
-                self.scene.remove()
-                self.scene = None
             ctl = self._controller_for(baseline, session, solver)
             lim = self.refine_params.max_handle_displacement_mm
             ctl.max_displacement_mm = float(lim) if lim else None
-            self.scene = self._build_scene(ctl, editable, moving)
-            self.apply_display()
             if session is not None:
-                set_value(self.panels.symmetric, session.symmetric)
-            ctl.set_symmetric(self.panels.symmetric.value)
-            self.reset_camera()
-        self._show_installed(baseline, editable, session)
+                self._symmetric = ctl.symmetric
+            else:
+                ctl.set_symmetric(self._symmetric)
+            self.editable = [i for i in editable if i in baseline.landmarks]
+            self.moving = np.asarray(moving, dtype=np.int64)
+            self.cameras = dict(baseline.reconstruction.cameras) \
+                if baseline.reconstruction else {}
+            self.photos = self._thumbnails(self.cameras)
+            fixed = [k for k in baseline.landmarks if k not in self.editable]
+            self.edit_help = ("Drag a **red** sphere to reshape the nose"
+                              + (f" (grey = fixed: {', '.join(fixed)})" if fixed else "") + ".")
+            self._initial_camera(baseline)
+            self._each_screen(lambda s: s.show_case())
+        if session is not None:
+            self.set_status(f"Session **{self.case_id}** reopened.")
+        elif self.case is None or self.source is not None and \
+                (self.source / "reconstruction.json").is_file():
+            self.set_status(f"**{self.case_id}** loaded.")
 
     def _controller_for(self, baseline: Baseline, session: Session | None,
                         solver: Solver) -> EditController:
@@ -375,73 +484,25 @@ class NaseviewApp:
             self.controller.close()
         ctl = (EditController.from_session(session, solver) if session is not None
                else EditController(baseline, solver))
-        ctl.on_simulation.append(self._on_simulation)
-        ctl.on_history.append(self._on_history)
-        ctl.on_error.append(self.panels.show_error)
+        ctl.on_error.append(lambda message: self.show_error(message))
         self.controller = ctl
         return ctl
 
-    def _build_scene(self, ctl: EditController, editable: list[str],
-                     moving: np.ndarray) -> FaceScene:
-        """The 3D scene of ``ctl``'s baseline with the cameras and photo thumbnails."""
-        baseline = ctl.baseline
-        cams = baseline.reconstruction.cameras if baseline.reconstruction else {}
-        photos = {}
+    def _thumbnails(self, cameras: Mapping[str, Camera]) -> dict[str, np.ndarray]:
+        """Photo thumbnails of the reconstructed views (for the camera frustums)."""
+        photos: dict[str, np.ndarray] = {}
         if self.case is not None:
-            for v in cams:
+            for v in cameras:
                 try:
                     photos[v] = _photo_thumb(self.case.load_image(v))
                 except NaseviewError:
                     pass
-        scene = FaceScene(self.server, ctl, editable, cams, photos, region=moving)
-        if ctl.simulation.generation == ctl.generation:
-            scene.update(ctl.simulation)
-        return scene
+        return photos
 
-    def _show_installed(self, baseline: Baseline, editable: list[str],
-                        session: Session | None) -> None:
-        """Panel texts, measurements, history buttons and photo once the editor is up."""
-        ctl = self.controller
-        assert ctl is not None
-        fixed = [k for k in baseline.landmarks if k not in editable]
-        self._edit_help = ("Drag a **red** sphere to reshape the nose"
-                           + (f" (grey = fixed: {', '.join(fixed)})" if fixed else "") + ".")
-        self.panels.edit_info.content = self._edit_help
-        self.panels.show_error(None)
-        self._on_simulation(ctl.simulation)
-        self._on_history()
-        self.show_photo(self.panels.photo_view.value)
-        credit = self.credit or ""
-        self.panels.credit.content = (f"<small>Face model: {credit}</small>" if credit else "")
-        if session is not None:
-            self.panels.set_status(f"Session **{self.case_id}** reopened.")
-        elif self.case is None or self.source is not None and \
-                (self.source / "reconstruction.json").is_file():
-            self.panels.set_status(f"**{self.case_id}** loaded.")
-
-    def apply_display(self) -> None:
-        """Show the scene as the panel's display and before / after toggles say."""
-        if self.scene is None:
-            return
-        p = self.panels
-        self.scene.set_visible(labels=p.labels.value, curves=p.show_curves.value,
-                               ad_landmarks=p.show_ad.value, cameras=p.show_cameras.value,
-                               landmarks=p.show_landmarks.value, highlight=p.highlight.value)
-        self.scene.set_view(colormap=p.colormap.value, original=p.show_original.value,
-                            overlay=p.overlay.value)
-
-    def reset_camera(self) -> None:
-        """Three-quarter view of the nose from the subject's left, nose filling the view
-        (every browser, and the initial camera of new ones)."""
-        if self.controller is None:
-            return
-        baseline = self.controller.baseline
-        nose = baseline.V[baseline.nose_ids] if len(baseline.nose_ids) else baseline.V
-        target = nose.mean(axis=0)
-        size = float(np.ptp(nose, axis=0).max()) if len(nose) else 60.0
-        direction = np.array([0.5, 0.1, 1.0]) / np.linalg.norm([0.5, 0.1, 1.0])
-        eye = target + direction * max(150.0, 5.0 * size)
-        fov = float(np.radians(35.0))
+    def _initial_camera(self, baseline: Baseline) -> None:
+        """The view a new tab starts with (and its Reset View): the nose (tabs already
+        open keep theirs; each screen frames its own)."""
+        target, eye, fov = nose_view(baseline)
         cam = self.server.initial_camera
         cam.fov = fov
         cam.near = 1.0
@@ -449,105 +510,20 @@ class NaseviewApp:
         cam.look_at = (float(target[0]), float(target[1]), float(target[2]))
         cam.position = (float(eye[0]), float(eye[1]), float(eye[2]))
         cam.up = (0.0, 1.0, 0.0)
-        for client in self.server.get_clients().values():
-            client.camera.fov = fov
-            client.camera.near = 1.0
-            client.camera.far = 5000.0
-            # position first: viser moves look_at along with a position update
-            client.camera.position = (float(eye[0]), float(eye[1]), float(eye[2]))
-            client.camera.look_at = (float(target[0]), float(target[1]), float(target[2]))
-            client.camera.up_direction = (0.0, 1.0, 0.0)
 
-    # listeners
-    def _on_simulation(self, sim: Simulation) -> None:
-        ctl = self.controller
-        if ctl is None:
-            return
-        self.panels.set_measurements(ctl.baseline.measurements, sim.measurements)
-        if self.scene is not None and self.scene.show_colormap:
-            self._update_colorbar(sim)
-        if not sim.interactive:
-            text = self._edit_help
-            if sim.warnings:
-                text += "\n\n⚠ " + " ".join(w.removeprefix("stage 3: ") for w in sim.warnings)
-            self.panels.edit_info.content = text
-
-    def _update_colorbar(self, sim: Simulation) -> None:
-        sc = self.scene
-        if sc is None:
-            return
-        ids = sc.nose_ids
-        d = signed_displacement(sc.base.V[ids], sim.V[ids], sc.normals[ids])
-        self.panels.set_colorbar(nice_limit(float(np.abs(d).max()) if len(d) else 0.0),
-                                 max(0.0, float(d.max(initial=0.0))),
-                                 max(0.0, float(-d.min(initial=0.0))),
-                                 NOSE if sc.highlight else SKIN)
-
-    def _on_history(self) -> None:
-        ctl = self.controller
-        if ctl is None:
-            return
-        self.panels.set_history(ctl.can_undo, ctl.can_redo, ctl.is_edited())
-
-    # actions (panels)
-    def undo(self) -> None:
-        if self.controller is not None:
-            self.controller.undo()
-
-    def redo(self) -> None:
-        if self.controller is not None:
-            self.controller.redo()
-
-    def reset(self) -> None:
-        if self.controller is not None:
-            self.controller.reset()
-
+    # the patient's shared settings
     def set_symmetric(self, on: bool) -> None:
+        """Symmetric mode of the patient's editor (every tab's checkbox follows)."""
+        self._symmetric = bool(on)
         if self.controller is not None:
             self.controller.set_symmetric(on)
 
-    def set_visible(self, **kw: bool) -> None:
-        if self.scene is not None:
-            self.scene.set_visible(**kw)
-
-    def set_view(self, **kw: bool) -> None:
-        if self.scene is None or self.controller is None:
-            return
-        self.scene.set_view(**kw)
-        if self.scene.show_colormap:
-            self._update_colorbar(self.controller.simulation)
-        else:
-            self.panels.set_colorbar(None)
-
-    def show_photo(self, view: str) -> None:
-        """Photo of ``view`` with clicks, reprojected landmarks / curves and residuals."""
-        p = self.panels
-        ctl = self.controller
-        if self.case is None or ctl is None or view not in self.case.views:
-            p.photo.visible = False
-            if self.case is None:
-                p.residuals.content = "No photos: the case directory is not available."
-            return
-        base = ctl.baseline
-        cams = base.reconstruction.cameras if base.reconstruction else {}
-        res = {v: click_residuals(vv.landmarks, cams[v], base.landmarks)
-               for v, vv in self.case.views.items() if v in cams}
-        flag = flag_threshold(res)
-        p.photo.image = annotate_photo(self.case.load_image(view), cams.get(view),
-                                       self.case.views[view].landmarks, base.landmarks,
-                                       base.curves, flag_px=flag)
-        p.photo.visible = True
-        text = residual_markdown(res, flag)
-        if self.suspect_messages:
-            text += "\n\n**Stage 1 flagged:**\n\n" + "\n".join(
-                f"- {m}" for m in self.suspect_messages)
-        p.residuals.content = text
-
-    def params_changed(self, stage: str) -> None:
-        """A parameter input changed (``stage``: ``"curves"``, ``"refine"`` or ``"app"``):
-        recompute after a short pause (debounced); ``"app"`` alone (drag iterations)
-        rebuilds only the edit solver."""
+    def params_changed(self, stage: str, asker: Screen | None = None) -> None:
+        """A parameter input changed in ``asker``'s panel (``stage``: ``"curves"``,
+        ``"refine"`` or ``"app"``): recompute after a short pause (debounced); ``"app"``
+        alone (drag iterations) rebuilds only the edit solver."""
         self._changed_stages.add(stage)
+        self._param_asker = asker
         if self._param_timer is not None:
             self._param_timer.cancel()
         self._param_timer = threading.Timer(0.6, self._recompute_shown)
@@ -556,36 +532,43 @@ class NaseviewApp:
 
     def _recompute_shown(self) -> None:
         """:meth:`recompute` from the debounce timer: an invalid value is shown in the
-        page (the parameters keep their last valid values)."""
+        tab that typed it (the parameters keep their last valid values)."""
+        asker = self._param_asker
         try:
-            self.recompute()
+            self.recompute(asker)
         except NaseviewError as e:
-            self.panels.show_error(str(e))
+            self.show_error(str(e), asker)
 
     def _apply_param_values(self, values: Mapping[str, Any], where: str) -> None:
         """The stage 2 / stage 3 parameters a session saved (``{"curves": {...},
-        "refine": {...}}``), then the panel inputs rebuilt for them."""
+        "refine": {...}}``), then every tab's parameter inputs rebuilt for them."""
         if values.get("curves"):
             self.curve_params = _with_saved(self.curve_params, values["curves"], where)
         if values.get("refine"):
             self.refine_params = _with_saved(self.refine_params, values["refine"], where)
-        self.panels.build_params(self.curve_params, self.refine_params)
+        self._each_screen(lambda s: s.panels.build_params(self.curve_params,
+                                                          self.refine_params))
 
-    def recompute(self) -> None:
-        """Apply the parameter panel: re-run the pipeline (case open) or rebuild the
-        edit solver (session / reconstruction without photos).
+    def recompute(self, asker: Screen | None = None) -> None:
+        """Apply ``asker``'s parameter panel (default: the values already taken): re-run
+        the pipeline (case open) or rebuild the edit solver (session / reconstruction
+        without photos); the other tabs' inputs follow.
 
         Raises:
             NaseviewError: a panel value outside its parameter's range.
         """
         stages, self._changed_stages = self._changed_stages, set()
-        v2, v3 = self.panels.param_values()
-        if v2:
-            self.curve_params = replace(self.curve_params, **_typed(self.curve_params, v2))
-        if v3:
-            self.refine_params = replace(self.refine_params, **_typed(self.refine_params, v3))
+        if asker is not None and not asker.closed:
+            v2, v3 = asker.panels.param_values()
+            if v2:
+                self.curve_params = replace(self.curve_params, **_typed(self.curve_params, v2))
+            if v3:
+                self.refine_params = replace(self.refine_params,
+                                             **_typed(self.refine_params, v3))
+            self.interactive_iterations = int(asker.panels.interactive_iters.value)
+            self._mirror_params(asker)
         if self.case is not None and stages != {"app"}:
-            self.reconstruct()
+            self.reconstruct(asker)
             return
         ctl = self.controller
         if ctl is None:
@@ -593,12 +576,20 @@ class NaseviewApp:
 
         def job(seq: int) -> None:
             solver, _, _ = self.solver_factory(ctl.baseline, self.refine_params,
-                                               int(self.panels.interactive_iters.value))
+                                               int(self.interactive_iterations))
             if seq == self._job_seq:
                 ctl.set_solver(solver)
-                self.panels.set_status("Edit solver rebuilt with the new parameters.")
+                self.set_status("Edit solver rebuilt with the new parameters.")
 
-        self._start_job(job, "Recompute")
+        self._start_job(job, "Recompute", asker)
+
+    def _mirror_params(self, source: Screen) -> None:
+        """Every other tab's parameter inputs show the values ``source`` set."""
+        def mirror(s: Screen) -> None:
+            if s is not source:
+                s.panels.build_params(self.curve_params, self.refine_params)
+                set_value(s.panels.interactive_iters, self.interactive_iterations)
+        self._each_screen(mirror)
 
     # export
     def app_state(self) -> dict[str, Any]:
@@ -653,7 +644,12 @@ class NaseviewApp:
         target.send_file_download(fname, data, save_immediately=True)
 
     def close(self) -> None:
-        self.new_patient.close()
+        """Release every tab's screen and the editor (the server is the caller's)."""
+        with self._lock:
+            self._closed = True
+            screens, self.screens = list(self.screens.values()), {}
+        for screen in screens:
+            screen.close()
         if self._param_timer is not None:
             self._param_timer.cancel()
         if self.controller is not None:
@@ -662,9 +658,11 @@ class NaseviewApp:
 
 def start_app(path: Path | None, host: str = "127.0.0.1", port: int = 8080,
               model: str | None = None,
-              solver_factory: SolverFactory | None = None
-              ) -> tuple[viser.ViserServer, NaseviewApp]:
-    """Start the server and open ``path``; returns ``(server, app)`` (non-blocking).
+              solver_factory: SolverFactory | None = None,
+              new_patient: bool = False) -> tuple[viser.ViserServer, NaseviewApp]:
+    """Start the server and open ``path`` (``None``: the bundled demo case); returns
+    ``(server, app)`` (non-blocking). With ``new_patient`` and no ``path`` nothing is
+    opened: every tab starts on the new-patient page.
 
     Raises:
         NaseviewError: ``host``:``port`` cannot be listened on (busy port, port out of
@@ -673,15 +671,34 @@ def start_app(path: Path | None, host: str = "127.0.0.1", port: int = 8080,
     server = guarded_viser_server(host, port, verbose=False)
     try:
         app = NaseviewApp(server, model=model, solver_factory=solver_factory)
-        app.open(path)
+        app.start_new_patient = new_patient
+        if path is not None or not new_patient:
+            app.open(path)
+        else:
+            app.set_status("**New patient**: upload the four photos, then mark the "
+                           "landmarks.")
     except BaseException:
         server.stop()
         raise
     return server, app
 
 
+def open_browser(address: str) -> bool:
+    """Open ``address`` (this server's own page) in the user's browser; False (and a
+    line saying so) when no browser could be started."""
+    try:
+        opened = webbrowser.open(address)
+    except Exception as e:  # a broken $BROWSER must not stop the server
+        log.debug("naseview: webbrowser failed: %s", e)
+        opened = False
+    if not opened:
+        print(f"naseview: could not open a browser; open {address} yourself", flush=True)
+    return bool(opened)
+
+
 def serve_command(args: argparse.Namespace) -> int:
-    """``naseview serve [PATH] [--host H] [--port P] [--model M]``: blocks until Ctrl-C."""
+    """``naseview serve [PATH] [--host H] [--port P] [--model M] [--new] [--no-browser]``:
+    opens the page in the browser (unless ``--no-browser``) and blocks until Ctrl-C."""
     logging.basicConfig(level=logging.WARNING, format="%(message)s")
     host = str(getattr(args, "host", "127.0.0.1") or "127.0.0.1")
     port = int(getattr(args, "port", 8080))
@@ -689,16 +706,19 @@ def serve_command(args: argparse.Namespace) -> int:
     if path is not None and not Path(path).exists():  # fail before a server starts
         raise NaseviewError(f"{path}: not found; pass a case directory (SPEC §3), a "
                             "`naseview reconstruct` output directory or a session file")
-    server, app = start_app(path, host, port, getattr(args, "model", None))
+    new = bool(getattr(args, "new", False))
+    server, app = start_app(path, host, port, getattr(args, "model", None), new_patient=new)
     shown = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
-    print(f"naseview: serving {app.source} at http://{shown}:{server.get_port()}/", flush=True)
+    address = f"http://{shown}:{server.get_port()}/"
+    what = app.source if app.source is not None else "the new-patient page"
+    print(f"naseview: serving {what} at {address}", flush=True)
     if host not in ("127.0.0.1", "localhost", "::1"):
         print(f"naseview: warning: bound to {host}; other computers on the network can open "
               "this page (patient data)", flush=True)
-    if getattr(args, "new", False):  # start with the new-patient page
-        app.new_patient.annotate.show_start()
-    print("naseview: press Ctrl-C to stop", flush=True)
+    if not getattr(args, "no_browser", False):
+        open_browser(address)
     try:
+        print("naseview: press Ctrl-C to stop", flush=True)
         while True:
             time.sleep(1.0)
     except KeyboardInterrupt:
@@ -706,7 +726,8 @@ def serve_command(args: argparse.Namespace) -> int:
     finally:
         # a reconstruction or solve still in native code when the interpreter exits
         # aborts the process ("terminate called without an active exception"): let it end
-        app.wait_ready(SHUTDOWN_WAIT_S)
+        if app.source is not None or app.controller is not None:  # a job ever ran
+            app.wait_ready(SHUTDOWN_WAIT_S)
         app.close()
         server.stop()
     return 0

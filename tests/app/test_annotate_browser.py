@@ -55,6 +55,14 @@ def screen_xy(camera, X: np.ndarray, box: dict) -> tuple[int, int]:
             math.floor(box["y"] + v * box["height"] / h))
 
 
+def tab_page(app: NaseviewApp):
+    """The new-patient page of the app's one browser tab, once its button built it."""
+    wait_for(lambda: len(app.screens) == 1
+             and next(iter(app.screens.values())).annotate is not None, 15,
+             "the tab's new-patient page")
+    return next(iter(app.screens.values())).annotate
+
+
 @pytest.fixture(scope="module")
 def synth_case(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("synth") / "case"
@@ -71,7 +79,6 @@ def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
     truth = read_reconstruction(synth_case / "truth.json")
     server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     app = NaseviewApp(server, model="generic")
-    page_obj = app.new_patient.annotate
     try:
         with sync_api.sync_playwright() as p:
             browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
@@ -80,6 +87,7 @@ def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
                 page.goto(f"http://127.0.0.1:{server.get_port()}/")
                 page.wait_for_selector("canvas", timeout=30_000)
                 page.get_by_role("button", name="New patient: photos and landmarks").click()
+                page_obj = tab_page(app)
                 # intake: a text file first (refused with a message, nothing lost), then
                 # the four photos through the real file chooser
                 bad = tmp_path / "notes.txt"
@@ -195,7 +203,6 @@ def test_new_patient_page_refuses_a_taken_id_and_oversized_photos(
     bomb.write_bytes(bomb_png(32000, 32000))
     server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     app = NaseviewApp(server, model="generic")
-    page_obj = app.new_patient.annotate
     try:
         with sync_api.sync_playwright() as p:
             browser = p.chromium.launch(executable_path=CHROMIUM, headless=True, args=FLAGS)
@@ -204,6 +211,7 @@ def test_new_patient_page_refuses_a_taken_id_and_oversized_photos(
                 page.goto(f"http://127.0.0.1:{server.get_port()}/")
                 page.wait_for_selector("canvas", timeout=30_000)
                 page.get_by_role("button", name="New patient: photos and landmarks").click()
+                page_obj = tab_page(app)
                 wait_for(lambda: page_obj.session is not None, 10, "a new patient")
                 own_id = page_obj.session.case_id
                 assert own_id != "P001"
@@ -227,7 +235,7 @@ def test_new_patient_page_refuses_a_taken_id_and_oversized_photos(
                     fc.value.set_files(str(path))
                     page.get_by_text(text).first.wait_for(timeout=20_000)
                     wait_for(photo_btn.is_enabled, 10, "the photo button to be usable")
-                wait_for(lambda: not server.gui._current_file_upload_states, 20,
+                wait_for(lambda: not page_obj.gui._current_file_upload_states, 20,
                          "the refused upload to be dropped")
                 page.get_by_text("<img src=x onerror=window.__pwned=1>.png").first.wait_for(
                     timeout=10_000)                     # the name is shown as text...

@@ -13,23 +13,20 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from helpers import CHROMIUM, CHROMIUM_FLAGS, browser_or_skip, ict_baseline, wait_for
-from viser import transforms as vtf
+from helpers import (
+    CHROMIUM,
+    CHROMIUM_FLAGS,
+    browser_or_skip,
+    ict_baseline,
+    project_to_view,
+    wait_for,
+)
 
 from naseview.app.guard import guarded_viser_server
 from naseview.app.serve import NaseviewApp
 
 pytestmark = pytest.mark.browser
 
-
-
-def project(camera, X: np.ndarray) -> np.ndarray:
-    """Pixel (x, y) of world point X in a client's viewport (viser OpenCV camera)."""
-    R = vtf.SO3(np.asarray(camera.wxyz)).as_matrix()            # camera -> world
-    pc = R.T @ (np.asarray(X, float) - np.asarray(camera.position))
-    h, w = camera.image_height, camera.image_width
-    f = (h / 2.0) / np.tan(camera.fov / 2.0)
-    return np.array([w / 2.0 + f * pc[0] / pc[2], h / 2.0 + f * pc[1] / pc[2]])
 
 
 @pytest.fixture(scope="module")
@@ -56,6 +53,9 @@ def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
             wait_for(lambda: any(c.camera.image_width > 0 and c.camera.fov > 0
                                  for c in server.get_clients().values()), 30, "a client camera")
             client = next(iter(server.get_clients().values()))
+            wait_for(lambda: app.screen_of(client) is not None
+                     and app.screen_of(client).shown.is_set(), 30, "the tab's screen")
+            scene = app.screen_of(client).scene
             # the app points the camera at the nose (initial camera); wait until applied
             look = np.asarray(server.initial_camera.look_at)
             wait_for(lambda: np.linalg.norm(np.asarray(client.camera.look_at) - look) < 1.0,
@@ -71,7 +71,7 @@ def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
             sx = box["width"] / cam.image_width
             sy = box["height"] / cam.image_height
             base = app.controller.baseline
-            uv = project(cam, base.V[base.nose_ids].mean(0))
+            uv = project_to_view(cam, base.V[base.nose_ids].mean(0))
             cx, cy = int(box["x"] + uv[0] * sx), int(box["y"] + uv[1] * sy)
             crop = img[max(0, cy - 60):cy + 60, max(0, cx - 60):cx + 60].astype(float)
             assert crop.size and crop.std() > 6.0, "the mesh area is blank"
@@ -80,9 +80,9 @@ def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
 
             # drag prn upwards with real mouse events
             prn = app.controller.landmarks["prn"]
-            uv = project(cam, prn)
+            uv = project_to_view(cam, prn)
             x0, y0 = box["x"] + uv[0] * sx, box["y"] + uv[1] * sy
-            V0 = np.asarray(app.scene.nose.vertices).copy()
+            V0 = np.asarray(scene.nose.vertices).copy()
             page.mouse.move(x0, y0)
             page.mouse.down()
             for i in range(1, 5):          # each move waits for a (software) frame
@@ -96,7 +96,7 @@ def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
             assert moved, "no landmark moved"
             lid = moved.pop()
             assert ctl.landmarks[lid][1] > base.landmarks[lid][1] + 0.5   # dragged up
-            V1 = np.asarray(app.scene.nose.vertices)
+            V1 = np.asarray(scene.nose.vertices)
             assert np.abs(V1 - V0).max() > 0.5                          # mesh changed
             assert np.abs(ctl.simulation.V - base.V).max() > 0.5
         finally:

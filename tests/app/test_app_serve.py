@@ -1,5 +1,6 @@
-"""The served app with a real viser server (no browser): opening a reconstruction with its
-photos, reopening a saved session exactly, and a crashing solver shown in the page."""
+"""The served app with a real viser server and headless tabs (no browser): opening a
+reconstruction with its photos, reopening a saved session exactly, and a crashing solver
+shown in the page."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import shutil
 
 import numpy as np
 import pytest
-from helpers import GaussianSolver, drag, ict_baseline, landmarks_close
+from helpers import GaussianSolver, drag, ict_baseline, landmarks_close, open_tab
 
 from naseview.app.export import mesh_file
 from naseview.app.guard import guarded_viser_server
@@ -46,6 +47,7 @@ def test_app_opens_reconstruction_with_photos_and_session_reopens_exactly(
         reconstruction_dir, tmp_path):
     servers = []
     apps = []
+    tabs = []
     try:
         server = guarded_viser_server("127.0.0.1", 0, verbose=False)
         servers.append(server)
@@ -53,9 +55,12 @@ def test_app_opens_reconstruction_with_photos_and_session_reopens_exactly(
         apps.append(app)
         app.open(reconstruction_dir)
         assert app.wait_ready(60)
-        assert app.case is not None and len(app.scene.frustums) == 4
-        assert app.panels.photo.visible
-        assert "front" in app.panels.residuals.content and "RMS" in app.panels.residuals.content
+        tab, screen = open_tab(server, app)
+        tabs.append(tab)
+        assert app.case is not None and len(screen.scene.frustums) == 4
+        assert screen.panels.photo.visible
+        assert "front" in screen.panels.residuals.content
+        assert "RMS" in screen.panels.residuals.content
         ctl = app.controller
         drag(ctl, "prn", np.array([0.0, 1.0, 1.0]))
         drag(ctl, "al_r", np.array([-1.0, 0.0, 0.0]))
@@ -77,6 +82,8 @@ def test_app_opens_reconstruction_with_photos_and_session_reopens_exactly(
         servers.append(server2)
         app2 = NaseviewApp(server2)
         apps.append(app2)
+        tab2, screen2 = open_tab(server2, app2)     # a tab open while the session loads
+        tabs.append(tab2)
         app2.open(session)                          # what `naseview serve SESSION` does
         assert app2.wait_ready(60)
         c2 = app2.controller
@@ -84,9 +91,11 @@ def test_app_opens_reconstruction_with_photos_and_session_reopens_exactly(
         assert landmarks_close(c2.landmarks, ctl.landmarks)
         assert c2.history_index == ctl.history_index and c2.can_redo
         assert app2.case is not None and app2.case_id == app.case_id
-        np.testing.assert_array_equal(np.asarray(app2.scene.nose.vertices),
-                                      np.asarray(app.scene.nose.vertices))
+        np.testing.assert_array_equal(np.asarray(screen2.scene.nose.vertices),
+                                      np.asarray(screen.scene.nose.vertices))
     finally:
+        for t in tabs:
+            t.close()
         for a in apps:
             a.close()
         for s in servers:
@@ -99,21 +108,26 @@ def test_app_shows_a_crashed_solve_in_the_page_and_keeps_serving(baseline):
 
     server = guarded_viser_server("127.0.0.1", 0, verbose=False)
     app = NaseviewApp(server, solver_factory=factory)
+    tab = None
     try:
         app.open_baseline(baseline, case_id="crash")
         assert app.wait_ready(60)
+        tab, screen = open_tab(server, app)
         drag(app.controller, "c", np.array([0.0, 1.0, 0.0]))
         assert app.controller.wait_idle(10)
-        assert app.panels.error.visible and "solver exploded" in app.panels.error.content
+        assert screen.panels.error.visible
+        assert "solver exploded" in screen.panels.error.content
         drag(app.controller, "prn", np.array([0.0, 1.0, 0.0]))  # c still moved: fails again
         app.controller.undo()
         app.controller.undo()
         assert app.controller.wait_idle(10)
         drag(app.controller, "prn", np.array([0.0, 1.0, 0.0]))
         assert app.controller.wait_idle(10)
-        assert not app.panels.error.visible                      # recovered
-        assert np.abs(np.asarray(app.scene.nose.vertices)
-                      - baseline.V[app.scene.nose_ids]).max() > 0.5
+        assert not screen.panels.error.visible                   # recovered
+        assert np.abs(np.asarray(screen.scene.nose.vertices)
+                      - baseline.V[screen.scene.nose_ids]).max() > 0.5
     finally:
+        if tab is not None:
+            tab.close()
         app.close()
         server.stop()

@@ -68,6 +68,16 @@ def ws_connect(port: int, origin: str | None,
         raise
 
 
+def report_camera(ws: websockets.sync.client.ClientConnection) -> None:
+    """What viser's page sends first: its camera (the server builds a tab's panels and
+    scene only for a client that did)."""
+    ws.send(msgspec.msgpack.encode({
+        "type": "ViewerCameraMessage", "wxyz": (1.0, 0.0, 0.0, 0.0),
+        "position": (0.0, 0.0, 500.0), "fov": 0.6, "near": 1.0, "far": 5000.0,
+        "image_height": 600, "image_width": 800, "look_at": (0.0, 0.0, 0.0),
+        "up_direction": (0.0, 1.0, 0.0)}))
+
+
 def received_bytes(ws: websockets.sync.client.ClientConnection, seconds: float,
                    enough: int | None = None) -> int:
     """Bytes the server sends on ``ws`` within ``seconds`` (or until ``enough`` came)."""
@@ -141,7 +151,17 @@ def test_own_origin_websocket_receives_the_scene(served) -> None:
     for origin in (f"http://127.0.0.1:{port}", f"http://localhost:{port}", None):
         host = None if origin is None else origin.removeprefix("http://")
         with ws_connect(port, origin, host) as ws:
+            report_camera(ws)
             assert received_bytes(ws, 10, enough=100_000) >= 100_000, origin  # the case
+
+
+def test_a_socket_that_never_shows_a_page_gets_no_patient_data(served) -> None:
+    """Panels and scenes are built per tab, for a client that reported its camera: a
+    socket of the right origin that never does receives no mesh and no photo."""
+    server, _ = served
+    port = server.get_port()
+    with ws_connect(port, f"http://127.0.0.1:{port}") as ws:
+        assert received_bytes(ws, 3) < 20_000
 
 
 def test_share_url_request_creates_no_tunnel(served, monkeypatch) -> None:
@@ -179,6 +199,7 @@ def test_share_url_request_creates_no_tunnel(served, monkeypatch) -> None:
     # and the server still serves a new page and a new client
     assert get(port, f"127.0.0.1:{port}")[0] == 200
     with ws_connect(port, f"http://127.0.0.1:{port}") as ws:
+        report_camera(ws)
         assert received_bytes(ws, 10, enough=100_000) >= 100_000
     assert attempts == [] and reached == []
 
@@ -245,7 +266,8 @@ def test_serve_with_host_warns_and_still_refuses_foreign_hosts() -> None:
     computers can open it, and still refuses a foreign ``Host``."""
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen([sys.executable, "-m", "naseview", "serve", "--host", "127.0.0.2",
-                             "--port", "0", "--model", "generic"], cwd=REPO, env=env,
+                             "--port", "0", "--model", "generic", "--no-browser"],
+                            cwd=REPO, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines: list[str] = []
     try:
@@ -297,6 +319,7 @@ def test_new_client_after_refusals_still_connects(served) -> None:
     for _ in range(5):
         assert get(port, f"evil.example.com:{port}")[0] == 403
     with ws_connect(port, f"http://localhost:{port}", f"localhost:{port}") as ws:
+        report_camera(ws)
         assert received_bytes(ws, 10, enough=100_000) >= 100_000
 
 

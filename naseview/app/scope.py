@@ -1,0 +1,58 @@
+"""Who a piece of the page reaches: one browser tab, or every tab of the server.
+
+viser has two scopes with the same ``gui`` / ``scene`` / ``atomic()`` API: the server's
+(every browser sees it, and it outlives a reload) and a client's (one tab, gone with its
+connection). The app builds each tab's panels, scene and pages in that tab's client scope
+(:class:`naseview.app.screen.Screen`); a page built on the server scope (a test, a
+stand-alone page) reaches every tab. :func:`clients_of` and :func:`notify` are the one
+place that tells the two apart.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Literal
+
+import viser
+
+log = logging.getLogger(__name__)
+
+Scope = viser.ViserServer | viser.ClientHandle
+"""A viser scope: the server (every tab) or one client (one tab)."""
+
+NoticeColor = Literal["blue", "red", "green"]
+"""Colours of the app's notifications."""
+
+
+def clients_of(scope: Scope) -> list[viser.ClientHandle]:
+    """The connected tabs ``scope`` reaches (a client: itself)."""
+    if isinstance(scope, viser.ClientHandle):
+        return [scope]
+    return list(scope.get_clients().values())
+
+
+def notify(scope: Scope, title: str, body: str, color: NoticeColor = "blue",
+           seconds: float = 6.0, client: viser.ClientHandle | None = None) -> None:
+    """A notification in ``client`` (default: every tab of ``scope``); a tab that has
+    gone away meanwhile is skipped."""
+    for c in [client] if client is not None else clients_of(scope):
+        try:
+            c.add_notification(title, body, color=color, auto_close_seconds=seconds)
+        except Exception:  # the tab closed meanwhile
+            log.debug("naseview: notification to a closed tab dropped", exc_info=True)
+
+
+class ClientAsServer:
+    """A client scope shaped like the server for code that takes a server's ``gui`` and
+    ``get_clients()`` (:class:`naseview.app.upload_limit.UploadLimit`): its GUI is the
+    client's, its only client the client itself."""
+
+    def __init__(self, client: viser.ClientHandle) -> None:
+        self.client = client
+        self.gui = client.gui
+
+    def get_clients(self) -> dict[int, viser.ClientHandle]:
+        return {self.client.client_id: self.client}
+
+
+__all__ = ["ClientAsServer", "NoticeColor", "Scope", "clients_of", "notify"]

@@ -1,0 +1,417 @@
+"""One browser tab of the app: its panels, 3D scene, patient mode, new-patient page, camera.
+
+viser gives every tab (one websocket connection) a client scope; a :class:`Screen` builds
+everything of that tab there (:mod:`naseview.app.scope`), so what one tab shows, selects or
+presents never reaches another, and a reload is a new tab with fresh defaults. The case,
+the editor and the background jobs are the patient's, held once by
+:class:`naseview.app.serve.NaseviewApp`: every tab's :class:`FaceScene` subscribes to the
+one :class:`EditController`, so an edit, Undo, Redo or Reset in any tab shows in all of
+them.
+
+The *patient screen* is a tab opened from the surgeon's link
+(:func:`patient_screen_url`): it connects on :data:`PATIENT_SCREEN_PATH` and starts in
+patient mode, following the surgeon's edits live with its own camera and turntable.
+
+Lifecycle: the app creates a screen when a tab connects (``server.on_client_connect``)
+and calls :meth:`Screen.close` when it goes (``on_client_disconnect``): its listeners
+leave the controller and its turntable and page threads stop.
+"""
+
+from __future__ import annotations
+
+import html
+import logging
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import viser
+
+from naseview.app.annotate_page import AnnotatePage
+from naseview.app.gui_value import set_value
+from naseview.app.panels import (
+    Panels,
+    annotate_photo,
+    click_residuals,
+    flag_threshold,
+    residual_markdown,
+)
+from naseview.app.patient_mode import PatientMode
+from naseview.app.scene import NOSE, SKIN, FaceScene, nice_limit, signed_displacement
+from naseview.app.scope import NoticeColor, notify
+from naseview.case import Case
+from naseview.editing.baseline import Baseline, Simulation
+from naseview.editing.controller import EditController
+from naseview.errors import NaseviewError
+
+if TYPE_CHECKING:
+    from naseview.app.serve import NaseviewApp
+
+log = logging.getLogger(__name__)
+
+PATIENT_SCREEN_PATH = "/patient"
+"""Websocket path of the patient screen (the page's own address stays ``/``)."""
+
+NOSE_VIEW_FOV_DEG = 35.0
+"""Vertical field of view of the default view of the nose (degrees)."""
+
+
+def nose_view(baseline: Baseline) -> tuple[np.ndarray, np.ndarray, float]:
+    """Default view of a face: ``(look_at (3,), eye (3,), fov rad)``, SPEC frame (mm, +y
+    up): a three-quarter view of the nose from the subject's left, the nose filling it."""
+    nose = baseline.V[baseline.nose_ids] if len(baseline.nose_ids) else baseline.V
+    target = nose.mean(axis=0)
+    size = float(np.ptp(nose, axis=0).max()) if len(nose) else 60.0
+    direction = np.array([0.5, 0.1, 1.0]) / np.linalg.norm([0.5, 0.1, 1.0])
+    eye = target + direction * max(150.0, 5.0 * size)
+    return target, eye, float(np.radians(NOSE_VIEW_FOV_DEG))
+
+
+def _request_of(server: viser.ViserServer, client: viser.ClientHandle) -> Any:
+    """The websocket handshake request of ``client``'s connection (None once gone).
+
+    viser 1.1.1 (pinned) keeps the live connections in its websocket server and offers no
+    public accessor; the handshake's path and ``Host`` are all naseview reads from it."""
+    conns = getattr(server._websock_server, "_live_connections", {})
+    return getattr(conns.get(client.client_id), "request", None)
+
+
+def connection_path(server: viser.ViserServer, client: viser.ClientHandle) -> str:
+    """Path of the websocket URL ``client`` connected to (``"/"`` for a normal tab,
+    :data:`PATIENT_SCREEN_PATH` for the patient screen)."""
+    request = _request_of(server, client)
+    path = str(getattr(request, "path", "/") or "/")
+    return path.partition("?")[0].rstrip("/") or "/"
+
+
+def connection_host(server: viser.ViserServer, client: viser.ClientHandle) -> str | None:
+    """The ``Host`` ``client`` connected to (the guard let only this server's own names
+    through), or None."""
+    request = _request_of(server, client)
+    headers = getattr(request, "headers", None)
+    host = headers.get("Host") if headers is not None else None
+    return str(host) if host else None
+
+
+def patient_screen_url(host: str) -> str:
+    """Address of the patient screen for a tab served as ``host`` (``name:port``): the
+    page itself, told by viser's ``websocket`` parameter to connect on
+    :data:`PATIENT_SCREEN_PATH`."""
+    return f"/?screen=patient&websocket=ws://{host}{PATIENT_SCREEN_PATH}"
+
+
+class Screen:
+    """One browser tab of ``app``: panels, scene, patient mode and new-patient page in the
+    tab's client scope; the editor and case are ``app``'s.
+
+    Args:
+        app: the served app (case, editor, jobs shared by every tab).
+        client: the tab.
+        patient_screen: the tab is the patient screen (starts in patient mode).
+    """
+
+    def __init__(self, app: NaseviewApp, client: viser.ClientHandle,
+                 patient_screen: bool = False) -> None:
+        self.app = app
+        self.client = client
+        self.patient_screen = patient_screen
+        self.scene: FaceScene | None = None
+        self.annotate: AnnotatePage | None = None
+        self.closed = False
+        self.released = threading.Event()
+        """Set once :meth:`close` has released everything the tab held."""
+        self._lock = threading.RLock()
+        self._subscribed: EditController | None = None
+        self.shown = threading.Event()
+        """Set once this tab shows the open case (scene, panel texts, patient mode)."""
+        client.scene.set_up_direction("+y")
+        self.panels = Panels(client, self)
+        self.panels.build_params(app.curve_params, app.refine_params)
+        set_value(self.panels.interactive_iters, app.interactive_iterations)
+        self.patient = PatientMode(client, self, app.work_dir)
+        self._build_patient_folder()
+
+    def _build_patient_folder(self) -> None:
+        """"Patient" at the top of the panel: new patient, patient mode and screen,
+        consultation report."""
+        gui = self.client.gui
+        with gui.add_folder("Patient", order=-100.0, expand_by_default=True):
+            new = gui.add_button("New patient: photos and landmarks",
+                                 icon=viser.Icon.USER_PLUS, color="green")
+            pm = gui.add_button("Patient mode (presentation)", icon=viser.Icon.PRESENTATION)
+            host = connection_host(self.app.server, self.client)
+            self.patient_link = gui.add_html(
+                "" if host is None else
+                f"<a href='{html.escape(patient_screen_url(host), quote=True)}' "
+                "target='_blank' rel='noopener'>Open the patient screen</a> — a second "
+                "tab (or window on the patient's monitor) that follows your edits with its "
+                "own view", visible=host is not None)
+            rep = gui.add_button("Consultation report", icon=viser.Icon.FILE_TEXT)
+        new.on_click(lambda e: self._run(self.show_new_patient))
+        pm.on_click(lambda e: self._run(self.patient.enter))
+        rep.on_click(lambda e: self._run(lambda: self.patient.download_report(e.client)))
+
+    def _run(self, fn: Callable[[], object]) -> None:
+        """Run a button action; errors become a red notification in this tab."""
+        try:
+            fn()
+        except NaseviewError as e:
+            self.notify(str(e), "red")
+        except Exception as e:
+            log.exception("naseview: action failed")
+            self.notify(f"{type(e).__name__}: {e}", "red")
+
+    def notify(self, body: str, color: NoticeColor = "blue") -> None:
+        notify(self.client, "naseview", body, color, seconds=8.0)
+
+    # what the pages read (AppHost)
+    @property
+    def controller(self) -> EditController | None:
+        return self.app.controller
+
+    @property
+    def case(self) -> Case | None:
+        return self.app.case
+
+    @property
+    def case_id(self) -> str:
+        return self.app.case_id
+
+    @property
+    def credit(self) -> str:
+        return self.app.credit
+
+    def open(self, path: Path | None) -> None:
+        """Open ``path`` for the patient (every tab follows); errors show here."""
+        self.app.open(path, asker=self)
+
+    # the case
+    def show_case(self) -> None:
+        """Build this tab's scene of the app's editor (after an install, or when the tab
+        connects) and bring the panel up to date."""
+        app = self.app
+        ctl = app.controller
+        if ctl is None or self.closed:
+            return
+        with self._lock:
+            self.shown.clear()
+            self._drop_scene()
+            scene = FaceScene(self.client, ctl, app.editable, app.cameras, app.photos,
+                              region=app.moving)
+            if ctl.simulation.generation == ctl.generation:
+                scene.update(ctl.simulation)
+            self.scene = scene
+            ctl.on_simulation.append(self._on_simulation)
+            ctl.on_history.append(self._on_history)
+            self._subscribed = ctl
+            self.apply_display()
+            annotating = self.annotate is not None and self.annotate.active
+            if not annotating:           # the page frames its photo; it resets on close
+                self.reset_camera()
+        self._show_texts()
+        if self.patient_screen or self.patient.active:
+            self.patient.enter()
+        self.shown.set()
+
+    def _drop_scene(self) -> None:
+        """Remove this tab's scene and its listeners from the controller it showed."""
+        ctl, self._subscribed = self._subscribed, None
+        if ctl is not None:
+            if self._on_simulation in ctl.on_simulation:
+                ctl.on_simulation.remove(self._on_simulation)
+            if self._on_history in ctl.on_history:
+                ctl.on_history.remove(self._on_history)
+        scene, self.scene = self.scene, None
+        if scene is not None:
+            try:
+                scene.remove()            # also detaches the scene's own listeners
+            except Exception:  # the tab went away meanwhile
+                log.debug("naseview: scene of a closed tab", exc_info=True)
+
+    def _show_texts(self) -> None:
+        """Edit help, measurements, history buttons, photo and credit of the case."""
+        ctl = self.app.controller
+        if ctl is None:
+            return
+        p = self.panels
+        p.edit_info.content = self.app.edit_help
+        p.show_error(None)
+        self._on_simulation(ctl.simulation)
+        self._on_history()
+        self.show_photo(p.photo_view.value)
+        credit = self.app.credit or ""
+        p.credit.content = f"<small>Face model: {credit}</small>" if credit else ""
+
+    # listeners (controller worker thread)
+    def _on_simulation(self, sim: Simulation) -> None:
+        ctl = self.app.controller
+        if ctl is None or self.closed:
+            return
+        p = self.panels
+        p.set_measurements(ctl.baseline.measurements, sim.measurements)
+        if self.scene is not None and self.scene.show_colormap:
+            self._update_colorbar(sim)
+        if not sim.interactive:
+            text = self.app.edit_help
+            if sim.warnings:
+                text += "\n\n⚠ " + " ".join(w.removeprefix("stage 3: ") for w in sim.warnings)
+            p.edit_info.content = text
+            if self.patient.active:
+                self.patient.refresh()
+
+    def _on_history(self) -> None:
+        ctl = self.app.controller
+        if ctl is None or self.closed:
+            return
+        self.panels.set_history(ctl.can_undo, ctl.can_redo, ctl.is_edited())
+        if bool(self.panels.symmetric.value) != ctl.symmetric:   # set in another tab
+            set_value(self.panels.symmetric, ctl.symmetric)
+
+    def _update_colorbar(self, sim: Simulation) -> None:
+        sc = self.scene
+        if sc is None:
+            return
+        ids = sc.nose_ids
+        d = signed_displacement(sc.base.V[ids], sim.V[ids], sc.normals[ids])
+        self.panels.set_colorbar(nice_limit(float(np.abs(d).max()) if len(d) else 0.0),
+                                 max(0.0, float(d.max(initial=0.0))),
+                                 max(0.0, float(-d.min(initial=0.0))),
+                                 NOSE if sc.highlight else SKIN)
+
+    # messages from the app (status of the patient's jobs)
+    def set_status(self, text: str) -> None:
+        self.panels.set_status(text)
+
+    def set_progress(self, fraction: float | None) -> None:
+        self.panels.set_progress(fraction)
+
+    def show_error(self, message: str | None) -> None:
+        """The error line (and a notification, except on a screen the patient sees)."""
+        self.panels.show_error(message, notify_tab=not self.patient.active)
+
+    # this tab's view
+    def apply_display(self) -> None:
+        """Show the scene as this tab's display and before / after toggles say."""
+        if self.scene is None:
+            return
+        p = self.panels
+        self.scene.set_visible(labels=p.labels.value, curves=p.show_curves.value,
+                               ad_landmarks=p.show_ad.value, cameras=p.show_cameras.value,
+                               landmarks=p.show_landmarks.value, highlight=p.highlight.value)
+        self.scene.set_view(colormap=p.colormap.value, original=p.show_original.value,
+                            overlay=p.overlay.value)
+
+    def reset_camera(self) -> None:
+        """This tab's camera on the default view of the nose (:func:`nose_view`)."""
+        ctl = self.app.controller
+        if ctl is None:
+            return
+        target, eye, fov = nose_view(ctl.baseline)
+        cam = self.client.camera
+        with self.client.atomic():
+            cam.fov = fov
+            cam.near = 1.0
+            cam.far = 5000.0
+            # position first: viser moves look_at along with a position update
+            cam.position = (float(eye[0]), float(eye[1]), float(eye[2]))
+            cam.look_at = (float(target[0]), float(target[1]), float(target[2]))
+            cam.up_direction = (0.0, 1.0, 0.0)
+
+    def show_photo(self, view: str) -> None:
+        """Photo of ``view`` with clicks, reprojected landmarks / curves and residuals."""
+        p = self.panels
+        app = self.app
+        ctl = app.controller
+        case = app.case
+        if case is None or ctl is None or view not in case.views:
+            p.photo.visible = False
+            if case is None:
+                p.residuals.content = app.photos_note
+            return
+        base = ctl.baseline
+        cams = base.reconstruction.cameras if base.reconstruction else {}
+        res = {v: click_residuals(vv.landmarks, cams[v], base.landmarks)
+               for v, vv in case.views.items() if v in cams}
+        flag = flag_threshold(res)
+        p.photo.image = annotate_photo(case.load_image(view), cams.get(view),
+                                       case.views[view].landmarks, base.landmarks,
+                                       base.curves, flag_px=flag)
+        p.photo.visible = True
+        text = residual_markdown(res, flag)
+        if app.suspect_messages:
+            text += "\n\n**Stage 1 flagged:**\n\n" + "\n".join(
+                f"- {m}" for m in app.suspect_messages)
+        p.residuals.content = text
+
+    def show_new_patient(self) -> None:
+        """This tab's new-patient page (built the first time it is asked for)."""
+        if self.annotate is None:
+            self.annotate = AnnotatePage(
+                self.app.server, self, self.app.work_dir, client=self.client,
+                diagrams=self.app.diagrams,
+                in_use=lambda folder: self.app.annotated_elsewhere(folder, self))
+        self.annotate.show_start()
+
+    # panel actions (PanelActions)
+    def undo(self) -> None:
+        if self.controller is not None:
+            self.controller.undo()
+
+    def redo(self) -> None:
+        if self.controller is not None:
+            self.controller.redo()
+
+    def reset(self) -> None:
+        if self.controller is not None:
+            self.controller.reset()
+
+    def set_symmetric(self, on: bool) -> None:
+        self.app.set_symmetric(on)
+
+    def set_visible(self, **kw: bool) -> None:
+        if self.scene is not None:
+            self.scene.set_visible(**kw)
+
+    def set_view(self, **kw: bool) -> None:
+        ctl = self.app.controller
+        if self.scene is None or ctl is None:
+            return
+        self.scene.set_view(**kw)
+        if self.scene.show_colormap:
+            self._update_colorbar(ctl.simulation)
+        else:
+            self.panels.set_colorbar(None)
+
+    def recompute(self) -> None:
+        self.app.recompute(asker=self)
+
+    def params_changed(self, stage: str) -> None:
+        self.app.params_changed(stage, asker=self)
+
+    def download(self, client: viser.ClientHandle | None, kind: str, fmt: str,
+                 **kw: str) -> None:
+        self.app.download(client or self.client, kind, fmt, **kw)
+
+    # lifecycle
+    def close(self) -> None:
+        """The tab went away: leave the controller, stop the turntable and the page's
+        threads (never raises: the client is gone)."""
+        with self._lock:
+            if self.closed:
+                return
+            self.closed = True
+            for step in (self.patient.close, self._drop_scene,
+                         self.annotate.close if self.annotate is not None else None):
+                if step is None:
+                    continue
+                try:
+                    step()
+                except Exception:
+                    log.debug("naseview: closing a tab", exc_info=True)
+            self.released.set()
+
+
+__all__ = ["PATIENT_SCREEN_PATH", "Screen", "connection_host", "connection_path",
+           "nose_view", "patient_screen_url"]
