@@ -7,10 +7,14 @@ import functools
 import importlib.util
 import math
 import os
+import signal
 import struct
+import subprocess
+import sys
 import time
 import zlib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +42,36 @@ def wait_for(cond: Callable[[], object], timeout: float, what: str) -> None:
             return
         time.sleep(0.02)
     raise AssertionError(f"timed out waiting for {what}")
+
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@contextmanager
+def naseview_serve(args: list[str], env: Mapping[str, str] | None = None
+                   ) -> Iterator[list[str]]:
+    """``python -m naseview serve ARGS`` in a subprocess (from the repository, environment
+    ``os.environ`` + ``env``), read until it says it is ready ("press Ctrl-C"); yields its
+    output lines so far, then stops it with Ctrl-C (SIGINT) and asserts a clean exit 0."""
+    proc = subprocess.Popen([sys.executable, "-m", "naseview", "serve", *args], cwd=REPO,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})},
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines: list[str] = []
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            lines.append(line)
+            if "press Ctrl-C" in line:
+                break
+        yield lines
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(30)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+    assert proc.returncode == 0, "".join(lines)
 
 
 def open_tab(server: Any, app: Any, path: str = "/", timeout: float = 30.0

@@ -6,25 +6,20 @@ case, and ``serve`` opens the browser unless ``--no-browser``."""
 
 from __future__ import annotations
 
-import os
 import re
-import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import GaussianSolver, drag, open_tab, wait_for
+from helpers import GaussianSolver, drag, naseview_serve, open_tab, wait_for
 
 from naseview.app.guard import guarded_viser_server
 from naseview.app.gui_value import set_value
 from naseview.app.screen import PATIENT_SCREEN_PATH
 from naseview.app.serve import NaseviewApp, start_app
 from naseview.editing.baseline import Baseline
-
-REPO = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture()
@@ -206,28 +201,11 @@ def serve_output(args: list[str], tmp_path: Path) -> tuple[str, Path]:
     opener = tmp_path / "browser.py"
     opener.write_text("import sys, pathlib\n"
                       f"pathlib.Path({str(record)!r}).write_text(sys.argv[1])\n")
-    env = {**os.environ, "PYTHONUNBUFFERED": "1", "NASEVIEW_WORK_DIR": str(tmp_path / "w"),
+    env = {"NASEVIEW_WORK_DIR": str(tmp_path / "w"),
            "BROWSER": f"{sys.executable} {opener} %s"}
-    proc = subprocess.Popen([sys.executable, "-m", "naseview", "serve", "--port", "0",
-                             "--model", "generic", *args], cwd=REPO, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines: list[str] = []
-    try:
-        assert proc.stdout is not None
-        for line in proc.stdout:
-            lines.append(line)
-            if "press Ctrl-C" in line:
-                break
+    with naseview_serve(["--port", "0", "--model", "generic", *args], env) as lines:
         if "--no-browser" not in args:
             wait_for(record.exists, 20, "the browser to be opened")
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(30)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-    assert proc.returncode == 0, "".join(lines)
     return "".join(lines), record
 
 

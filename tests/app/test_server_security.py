@@ -13,12 +13,8 @@ server stays up. The real-browser version of the foreign page is
 from __future__ import annotations
 
 import http.client
-import os
 import re
-import signal
 import socket
-import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
@@ -29,12 +25,12 @@ import viser
 import viser._viser
 import websockets.exceptions
 import websockets.sync.client
+from helpers import REPO, naseview_serve
 
 from naseview.app.guard import OriginPolicy
 from naseview.app.serve import start_app
 from naseview.errors import NaseviewError
 
-REPO = Path(__file__).resolve().parents[2]
 SUBPROTOCOL = f"viser-v{viser.__version__}"
 
 
@@ -264,18 +260,8 @@ def test_serve_with_host_warns_and_still_refuses_foreign_hosts() -> None:
     """``naseview serve --host`` (here 127.0.0.2: another address of this computer, so the
     test opens nothing to the network) serves the printed address, warns that other
     computers can open it, and still refuses a foreign ``Host``."""
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.Popen([sys.executable, "-m", "naseview", "serve", "--host", "127.0.0.2",
-                             "--port", "0", "--model", "generic", "--no-browser"],
-                            cwd=REPO, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines: list[str] = []
-    try:
-        assert proc.stdout is not None
-        for line in proc.stdout:
-            lines.append(line)
-            if "press Ctrl-C" in line:
-                break
+    with naseview_serve(["--host", "127.0.0.2", "--port", "0", "--model", "generic",
+                         "--no-browser"]) as lines:
         out = "".join(lines)
         found = re.search(r"serving .* at http://127\.0\.0\.2:(\d+)/", out)
         assert found, out
@@ -289,14 +275,6 @@ def test_serve_with_host_warns_and_still_refuses_foreign_hosts() -> None:
         conn.request("GET", "/", headers={"Host": f"evil.example.com:{port}"})
         assert conn.getresponse().status == 403
         conn.close()
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(30)
-        finally:
-            if proc.poll() is None:
-                proc.kill()
-    assert proc.returncode == 0, "".join(lines)
 
 
 def test_every_viser_server_is_guarded() -> None:
