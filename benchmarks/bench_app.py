@@ -10,7 +10,13 @@ scene, so the updates are queued on that tab's connection; ``--tabs N`` connects
 (every tab's scene is updated by the same solve). Bytes are the serialised size (msgpack
 + raw arrays, before zstd) of the messages queued per update for the first tab.
 
-Usage: ``python benchmarks/bench_app.py [--steps 60] [--landmarks prn,al_l,r]``.
+With the texture on (default; ``--no-texture`` for the plain skin), the face is textured
+from four photos of the ICT face rendered here (front, both profiles, base; a skin
+pattern), baked once before the tab connects: every update then carries the nose part's
+GLB with its cropped texture JPEG (:mod:`naseview.app.face_glb`).
+
+Usage: ``python benchmarks/bench_app.py [--steps 60] [--landmarks prn,al_l,r]
+[--no-texture]``.
 Needs the ICT model (``NASEVIEW_ICT_MODEL`` or an installed one).
 
 Targets (issue 6): median <= 50 ms, p95 <= 100 ms, >= 10 updates per second.
@@ -27,11 +33,14 @@ import msgspec
 import numpy as np
 from _shared import use_shared_ict
 
+from naseview.app.face_look import make_look, set_face_look
 from naseview.app.guard import guarded_viser_server
 from naseview.app.headless_tab import HeadlessTab
 from naseview.app.serve import NaseviewApp
-from naseview.editing.baseline import baseline_from_face_model
+from naseview.camera import standard_camera
+from naseview.editing.baseline import Baseline, baseline_from_face_model
 from naseview.facemodel import load_face_model
+from naseview.render import render_mesh
 
 
 def message_bytes(message: object) -> int:
@@ -41,6 +50,21 @@ def message_bytes(message: object) -> int:
     return len(msgspec.msgpack.encode(d)) + sum(b.nbytes for b in buffers)
 
 
+def skin_photos(baseline: Baseline, size: int = 1024) -> tuple[dict, dict]:
+    """Four photos (BGR, ``size`` px) of the face with a skin pattern, and their cameras."""
+    V, F = baseline.V, baseline.F
+    rgb = np.column_stack([205 + 25 * np.sin(V[:, 0] / 7.0), 165 + 20 * np.cos(V[:, 1] / 9.0),
+                           140 + 15 * np.sin((V[:, 0] + V[:, 2]) / 5.0)]) / 255.0
+    cams, photos = {}, {}
+    for view, std in (("front", "front"), ("left", "left"), ("right", "right"),
+                      ("bottom", "base")):
+        cam = standard_camera(V, std, size)
+        cams[view] = cam
+        photos[view] = (render_mesh(V, F, cam, vertex_colors=rgb[:, ::-1],
+                                    background=(0, 255, 0)).image)
+    return cams, photos
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=60, help="drag events per drag")
@@ -48,6 +72,7 @@ def main() -> None:
     ap.add_argument("--interval-ms", type=float, default=50.0)
     ap.add_argument("--amplitude-mm", type=float, default=4.0)
     ap.add_argument("--tabs", type=int, default=1, help="browser tabs connected")
+    ap.add_argument("--no-texture", action="store_true", help="the untextured face")
     args = ap.parse_args()
     use_shared_ict()
     model = load_face_model("ict")
@@ -59,6 +84,13 @@ def main() -> None:
     assert app.wait_ready(120), "app not ready"
     t_ready = time.perf_counter() - t0
     ctl = app.controller
+    bake = ""
+    if not args.no_texture:
+        cams, photos = skin_photos(baseline)
+        look = make_look(baseline, app.moving, cams, photos)
+        assert look.texture is not None
+        set_face_look(app, look)
+        bake = f"texture baked in {look.bake_s:.1f} s; "
     tabs = [HeadlessTab(server) for _ in range(max(1, args.tabs))]
     end = time.monotonic() + 60
     while not all((s := app.screen_of(t.client)) is not None and s.shown.is_set()
@@ -138,7 +170,7 @@ def main() -> None:
 
     n_nose = len(scene.nose_ids)
     print(f"ICT face: {len(baseline.V)} vertices, {len(baseline.F)} triangles; nose mesh sent "
-          f"live: {n_nose} vertices ({n_nose * 12 / 1024:.1f} KiB as float32); app ready in "
+          f"live: {n_nose} vertices ({n_nose * 12 / 1024:.1f} KiB as float32); {bake}app ready in "
           f"{t_ready:.1f} s; {len(tabs)} tab(s); drag events every {args.interval_ms:g} ms, "
           f"{args.steps} per drag")
     print()

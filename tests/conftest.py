@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -20,6 +21,11 @@ SHARED_ICT = REPO.parent / "shared" / "data" / "ict-face-model"
 # Point naseview at the shared ICT model unless the caller chose one.
 if (SHARED_ICT / "ict_face_light.npz").is_file():
     os.environ.setdefault("NASEVIEW_ICT_MODEL", str(SHARED_ICT / "ict_face_light.npz"))
+
+# Never the real patients' work folder (~/naseview-patients or the user's
+# NASEVIEW_WORK_DIR): every test and every server a test starts gets a fresh one unless
+# the test sets its own.
+os.environ["NASEVIEW_WORK_DIR"] = tempfile.mkdtemp(prefix="naseview-test-work-")
 
 
 @pytest.fixture(scope="session")

@@ -41,15 +41,13 @@ and are queued to one worker thread, so fast clicking never reorders landmarks.
 
 from __future__ import annotations
 
-import html
 import logging
 import queue
-import re
 import threading
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import viser
@@ -57,10 +55,12 @@ import viser
 from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
 from naseview.app.landmark_diagrams import LandmarkDiagrams
+from naseview.app.markdown_text import markdown_text
+from naseview.app.patients_panel import PatientList
 from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
 from naseview.app.photo_plane import PhotoPlane, disc_mesh, ring_mesh
 from naseview.app.scope import ClientAsServer, NoticeColor, Scope, clients_of, notify
-from naseview.app.upload_limit import UploadLimit
+from naseview.app.upload_limit import UploadLimit, UploadScope
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, describe
@@ -69,6 +69,7 @@ from naseview.intake.patients import PatientFolders
 from naseview.intake.photos import MAX_UPLOAD_BYTES, upload_too_large
 from naseview.intake.session import AnnotationSession, InProgress, default_case_id
 from naseview.landmarks import LANDMARKS, VIEWS
+from naseview.records import PatientRecords
 
 log = logging.getLogger(__name__)
 
@@ -82,19 +83,6 @@ _UNSET = object()
 
 GuiEvent = viser.GuiEvent[Any]
 """A GUI callback's event (``event.client`` is None for values the server assigns)."""
-
-
-_MARKDOWN_SPECIAL = re.compile(r"([\\`*_{}\[\]()#+!|~>-])")
-
-
-def markdown_text(text: str) -> str:
-    """``text`` shown literally in a viser markdown element, which renders raw HTML
-    unsanitized: a file name such as ``<img src=x onerror=...>.jpg`` must stay text.
-
-    >>> print(markdown_text("<b>front_1</b>.jpg"))
-    &lt;b&gt;front\\_1&lt;/b&gt;.jpg
-    """
-    return _MARKDOWN_SPECIAL.sub(r"\\\1", html.escape(text, quote=False))
 
 
 def _view_of(label: str) -> str:
@@ -162,8 +150,7 @@ class AnnotatePage:
         self._taken_id: str | None = None      # an id typed that another patient has
         self._build_gui()
         # a tab's upload buttons are buffered by that tab's GUI: the limit watches there
-        limited = server if client is None else cast(viser.ViserServer,
-                                                      ClientAsServer(client))
+        limited: UploadScope = server if client is None else ClientAsServer(client)
         self.upload_limit = UploadLimit(limited, MAX_UPLOAD_BYTES, self._on_upload_refused)
         for btn in self.uploads.values():
             self.upload_limit.watch(btn)
@@ -233,6 +220,13 @@ class AnnotatePage:
                 self.rec_md = gui.add_markdown("")
             self.close_btn = gui.add_button("Close (back to the 3D view)",
                                             icon=viser.Icon.X, order=4.0)
+        self.patient_list: PatientList | None = None
+        """Earlier patients (when the page opens what it makes: ``app`` given)."""
+        if self.app is not None:
+            with self.panel.add_tab("Patients", icon=viser.Icon.USERS):
+                self.patient_list = PatientList(
+                    gui, PatientRecords(self.work_dir).list_patients, self.folders,
+                    self._open_patient)
         self._wire()
 
     def _wire(self) -> None:
@@ -323,7 +317,10 @@ class AnnotatePage:
     def show_start(self) -> None:
         """Show the page: the patient being annotated, else the newest unfinished one
         (the list offers the others), else a new patient. A patient whose case was
-        already reconstructed is not reopened: "New patient" then starts a new one."""
+        already reconstructed is not reopened: "New patient" then starts a new one. The
+        "Patients" tab lists the patients kept so far."""
+        if self.patient_list is not None:
+            self.patient_list.refresh()
         if self.session is not None and self.session.case_dir is None:
             self._attach(self.session)
             return
@@ -402,9 +399,10 @@ class AnnotatePage:
         # Bring the cameras back to the face first: from 100 m away, viser's separate
         # look_at / position updates of the app's camera placement end up misaligned.
         eye, target = (0.0, -40.0, 450.0), (0.0, -40.0, 0.0)
-        cam0 = self.server.initial_camera          # new tabs' first view (Reset View)
-        cam0.position, cam0.look_at, cam0.up = eye, target, (0.0, 1.0, 0.0)
-        cam0.near, cam0.far = 1.0, 5000.0
+        if self.client is None:             # a page on the server scope: new tabs' view
+            cam0 = self.server.initial_camera
+            cam0.position, cam0.look_at, cam0.up = eye, target, (0.0, 1.0, 0.0)
+            cam0.near, cam0.far = 1.0, 5000.0
         for client in clients_of(self.scope):
             with client.atomic():
                 client.camera.position = eye
@@ -516,6 +514,13 @@ class AnnotatePage:
             raise NaseviewError(f"{found.case_dir}: open it with naseview serve "
                                 f"{found.case_dir}")
 
+    def _open_patient(self, path: Path) -> None:
+        """A patient or simulation chosen in the "Patients" tab: opened in the app."""
+        if self.app is None:
+            return
+        self.hide()
+        self.app.open(path)
+
     def _on_resume(self) -> None:
         name = self.resume_dd.value
         for a in self.folders.annotations():
@@ -588,7 +593,9 @@ class AnnotatePage:
 
     def fit_camera(self, clients: Iterable[viser.ClientHandle] | None = None) -> None:
         """Point every browser's camera straight at the photo, fitted to its window."""
-        fit_photo(self.server, self.plane or PhotoPlane(4, 3),
+        # a tab's page leaves the other tabs' initial view ("Reset View") alone
+        fit_photo(self.server if self.client is None else None,
+                  self.plane or PhotoPlane(4, 3),
                   clients or clients_of(self.scope))
 
     def zoom_nose(self) -> None:

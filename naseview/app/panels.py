@@ -23,6 +23,7 @@ from naseview.app.export import MESH_TYPES, measurements_markdown
 from naseview.app.gui_value import set_value
 from naseview.app.scene import colorbar_image
 from naseview.app.scope import Scope, notify
+from naseview.app.viewer import VIEW_BUTTONS
 from naseview.camera import Camera
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
@@ -52,6 +53,10 @@ def flag_threshold(residuals: Mapping[str, Mapping[str, float]],
     vals = [v for r in residuals.values() for v in r.values()]
     return max(floor_px, factor * float(np.median(vals))) if vals else floor_px
 
+
+BRAND = (52, 108, 170)
+"""Calm blue of routine actions (viser's primary colour); red marks only the destructive
+"Reset all"."""
 
 STAGE2_FIELDS: tuple[tuple[str, str], ...] = (
     ("side_w_ratio", "side-curve w2/w1"), ("side_h_ratio", "side-curve h2/h1"),
@@ -164,6 +169,8 @@ class PanelActions(Protocol):
     def set_symmetric(self, on: bool) -> None: ...
     def set_visible(self, **kw: bool) -> None: ...
     def set_view(self, **kw: bool) -> None: ...
+    def show_standard_view(self, view: str) -> None: ...
+    def save_view_png(self, client: viser.ClientHandle | None) -> None: ...
     def show_photo(self, view: str) -> None: ...
     def recompute(self) -> None: ...
     def params_changed(self, stage: str) -> None: ...
@@ -180,7 +187,7 @@ class Panels:
         self.app = app
         self.gui = gui = scope.gui
         gui.configure_theme(show_share_button=False, control_width="large",
-                            brand_color=(190, 70, 60))
+                            brand_color=BRAND)
         gui.main_panel.dock_right()
         gui.main_panel.set_width(400)
         self.title = gui.add_markdown("**naseview** — 3D nose reconstruction")
@@ -188,18 +195,28 @@ class Panels:
         self.progress = gui.add_progress_bar(0.0, visible=False, animated=True)
         self.error = gui.add_markdown("", visible=False)
 
+        with gui.add_folder("View", expand_by_default=True):
+            self.views = gui.add_button_group(
+                "Views", tuple(label for label, _ in VIEW_BUTTONS),
+                hint="Standard clinical views, framed on the nose")
+            self.show_construction = gui.add_checkbox(
+                "Show construction", False,
+                hint="Curves, ad-landmarks, nose outline, fixed landmarks and cameras")
+            self.labels = gui.add_checkbox("Landmark labels", False,
+                                           hint="Names of the landmarks you can drag")
+            self.save_png = gui.add_button("Save view as PNG", icon=viser.Icon.PHOTO,
+                                           hint="This view, for the patient's chart")
         with gui.add_folder("Edit", expand_by_default=True):
             self.undo = gui.add_button("Undo", icon=viser.Icon.ARROW_BACK_UP, disabled=True,
                                        hint="Undo the last drag")
             self.redo = gui.add_button("Redo", icon=viser.Icon.ARROW_FORWARD_UP,
                                        disabled=True)
-            self.reset = gui.add_button("Reset to reconstruction", icon=viser.Icon.RESTORE,
-                                        disabled=True)
+            self.reset = gui.add_button("Reset all (back to the reconstruction)",
+                                        icon=viser.Icon.RESTORE, disabled=True, color="red")
             self.symmetric = gui.add_checkbox(
                 "Symmetric", False,
                 hint="Move the left/right partner mirrored across the midsagittal plane; "
                      "midline landmarks keep their x")
-            self.labels = gui.add_checkbox("Landmark labels", False)
             self.edit_info = gui.add_markdown(
                 "Drag a red sphere to reshape the nose (grey: fixed).")
         with gui.add_folder("Measurements", expand_by_default=True):
@@ -210,19 +227,25 @@ class Panels:
         with gui.add_folder("Before / after", expand_by_default=True):
             self.show_original = gui.add_checkbox(
                 "Show original (before)", False, hint="Toggle before / after")
-            self.overlay = gui.add_checkbox("Overlay original (translucent)", False)
+            self.overlay = gui.add_checkbox("Ghost of the original", False,
+                                            hint="Contour lines of the original nose")
             self.colormap = gui.add_checkbox("Displacement colour map", False)
             self.colorbar = gui.add_image(colorbar_image(1.0), visible=False)
             self.displacement = gui.add_markdown("", visible=False)
-        with gui.add_folder("Display", expand_by_default=False):
-            self.show_landmarks = gui.add_checkbox("Landmarks", True)
+        self.photo_sim_folder = gui.add_folder("On the photos", expand_by_default=True)
+        """Where the tab shows the simulation on the patient's photos
+        (:mod:`naseview.app.photo_sim`)."""
+        with gui.add_folder("Construction", expand_by_default=False):
+            self.show_landmarks = gui.add_checkbox("Draggable landmarks", True)
             self.show_curves = gui.add_checkbox("Curves", True)
             self.show_ad = gui.add_checkbox("Ad-landmarks", True)
             self.show_cameras = gui.add_checkbox("Cameras and photos", False)
-            self.highlight = gui.add_checkbox("Highlight nose region", True)
-        with gui.add_folder("Parameters", expand_by_default=False):
+            self.highlight = gui.add_checkbox("Nose region outline", True)
+            gui.add_markdown("<small>Shown with “Show construction” (View).</small>")
+        with gui.add_folder("Advanced", expand_by_default=False):
             self.param_info = gui.add_markdown(
-                "Changing a value recomputes stages 2-3 in the background.")
+                "Engineering parameters of the reconstruction; changing a value "
+                "recomputes it in the background.")
             self.params2: dict[str, viser.GuiNumberHandle[Any]] = {}
             self.params3: dict[str, viser.GuiNumberHandle[Any]] = {}
             self.interactive_iters = gui.add_number(
@@ -240,6 +263,15 @@ class Panels:
             self.export_state = gui.add_dropdown("State", ("simulated", "original"))
             self.mesh_buttons = {t: gui.add_button(f"Mesh .{t}", icon=viser.Icon.DOWNLOAD)
                                  for t in MESH_TYPES}
+            self.textured_glb = gui.add_button(
+                "Face with photo texture .glb", icon=viser.Icon.DOWNLOAD,
+                hint="glTF in metres, the patient's skin embedded")
+            self.textured_obj = gui.add_button(
+                "Face with photo texture .obj (zip)", icon=viser.Icon.DOWNLOAD,
+                hint="OBJ (mm) + MTL + PNG")
+            self.solid_stl = gui.add_button(
+                "Watertight solid .stl (3D print)", icon=viser.Icon.DOWNLOAD,
+                hint="Holes and the open border closed (mm)")
             self.lm_json = gui.add_button("Landmarks .json", icon=viser.Icon.DOWNLOAD)
             self.lm_csv = gui.add_button("Landmarks .csv", icon=viser.Icon.DOWNLOAD)
             self.meas_json = gui.add_button("Measurements .json", icon=viser.Icon.DOWNLOAD)
@@ -274,6 +306,11 @@ class Panels:
                     inner(event)
             return run
 
+        self.views.on_click(safe(lambda e: app.show_standard_view(
+            dict(VIEW_BUTTONS)[str(e.target.value)])))
+        self.show_construction.on_update(
+            safe(lambda e: app.set_visible(construction=self.show_construction.value)))
+        self.save_png.on_click(safe(lambda e: app.save_view_png(e.client)))
         self.undo.on_click(safe(lambda e: app.undo()))
         self.redo.on_click(safe(lambda e: app.redo()))
         self.reset.on_click(safe(lambda e: app.reset()))
@@ -306,6 +343,15 @@ class Panels:
         self.meas_json.on_click(safe(lambda e: app.download(e.client, "measurements", "json")))
         self.meas_csv.on_click(safe(lambda e: app.download(e.client, "measurements", "csv")))
         self.session.on_click(safe(lambda e: app.download(e.client, "session", "json")))
+        self.textured_glb.on_click(safe(lambda e: app.download(
+            e.client, "textured", "glb", part=self.export_part.value,
+            state=self.export_state.value)))
+        self.textured_obj.on_click(safe(lambda e: app.download(
+            e.client, "textured", "obj", part=self.export_part.value,
+            state=self.export_state.value)))
+        self.solid_stl.on_click(safe(lambda e: app.download(
+            e.client, "solid", "stl", part=self.export_part.value,
+            state=self.export_state.value)))
 
     def build_params(self, curve_params: CurveParams, refine_params: RefineParams) -> None:
         """Number inputs bound to the stage 2 / stage 3 parameter dataclasses.

@@ -33,9 +33,12 @@ from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
 from naseview.app.scene import FaceScene, blend
 from naseview.app.scope import NoticeColor, Scope, clients_of, notify
+from naseview.camera import DISTANCE_MM
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
+from naseview.intake.annotation_file import safe_case_id
+from naseview.intake.patients import PatientFolders
 from naseview.report import DISCLAIMER, ReportData, measurement_rows, write_report
 
 log = logging.getLogger(__name__)
@@ -43,6 +46,8 @@ log = logging.getLogger(__name__)
 TURNTABLE_DEG = 40.0
 TURNTABLE_PERIOD_S = 24.0
 TURNTABLE_HZ = 25.0
+TURNTABLE_DISTANCE_FACTOR = 1.5
+"""Turntable distance as a multiple of the standard views' (:data:`DISTANCE_MM`)."""
 
 KEY_MEASUREMENTS: tuple[tuple[str, str], ...] = (
     ("nasal_length", "Length n–prn"),
@@ -166,6 +171,10 @@ class PatientMode:
             self.t = 1.0
             set_value(self.slider, 1.0)
         self.set_blend(1.0)
+        try:
+            self.app.reset_camera()          # the standard lens the turntable uses
+        except Exception:
+            log.debug("naseview: camera reset failed", exc_info=True)
         self._turntable_changed()
 
     def refresh(self) -> None:
@@ -293,8 +302,9 @@ class PatientMode:
         _, scene, base = self._state()
         nose = base.V[base.nose_ids] if len(base.nose_ids) else base.V
         target = 0.5 * (nose.min(axis=0) + nose.max(axis=0))
-        size = float(np.ptp(nose, axis=0).max()) if len(nose) else 60.0
-        distance = max(160.0, 4.2 * size)
+        # the standard views' distance and lens (the tab's camera was reset to one on
+        # entering), a little farther so the measurement labels beside the nose fit
+        distance = TURNTABLE_DISTANCE_FACTOR * DISTANCE_MM
         self._stop.clear()
 
         def run() -> None:
@@ -348,8 +358,9 @@ class PatientMode:
         data = self.report_data()
         deid = self.deid.value if deidentified is None else deidentified
         name = "report-deidentified.html" if deid else "report.html"
-        safe = "".join(ch if ch.isalnum() or ch in "-_." else "-" for ch in data.case_id)
-        return write_report(data, self.work_dir / (safe or "case") / "report" / name,
+        report_dir = PatientFolders(self.work_dir).report_dir(safe_case_id(data.case_id)
+                                                              or "case")
+        return write_report(data, report_dir / name,
                             deidentified=bool(deid))
 
     def download_report(self, client: viser.ClientHandle | None = None) -> None:

@@ -23,17 +23,20 @@ def _aspect(camera: viser.CameraHandle) -> float:
     return camera.image_width / camera.image_height if camera.image_height else DEFAULT_ASPECT
 
 
-def fit_photo(server: viser.ViserServer, plane: PhotoPlane,
+def fit_photo(server: viser.ViserServer | None, plane: PhotoPlane,
               clients: Iterable[viser.ClientHandle]) -> None:
-    """The whole photo, fitted to each window (and to new browsers' initial view)."""
+    """The whole photo, fitted to each window of ``clients``; with ``server``, also new
+    browsers' initial view (and every tab's "Reset View"): a page on the server scope
+    only. A page in one tab passes ``None`` and leaves the other tabs' views alone."""
     eye = plane.centre + np.array([0.0, 0.0, CAMERA_DISTANCE])
-    cam0 = server.initial_camera
-    cam0.position = tuple(eye)
-    cam0.look_at = tuple(plane.centre)
-    cam0.up = (0.0, 1.0, 0.0)
-    cam0.fov = plane.fov_for(DEFAULT_ASPECT)
-    cam0.near = 1.0
-    cam0.far = 4.0 * CAMERA_DISTANCE
+    if server is not None:
+        cam0 = server.initial_camera
+        cam0.position = tuple(eye)
+        cam0.look_at = tuple(plane.centre)
+        cam0.up = (0.0, 1.0, 0.0)
+        cam0.fov = plane.fov_for(DEFAULT_ASPECT)
+        cam0.near = 1.0
+        cam0.far = 4.0 * CAMERA_DISTANCE
     for client in clients:
         c = client.camera
         aspect = _aspect(c)

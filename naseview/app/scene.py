@@ -25,31 +25,87 @@ import time
 from collections.abc import Iterable, Mapping, Sequence
 
 import cv2
-import igl
 import numpy as np
 import viser
 from viser import transforms as vtf
 
+from naseview.app.face_glb import FaceGlb
+from naseview.app.ghost import ghost_segments
+from naseview.app.landmark_names import display_name
 from naseview.app.scope import Scope
 from naseview.camera import Camera
 from naseview.editing.baseline import Landmarks, Simulation
 from naseview.editing.controller import EditController
 from naseview.geometry.mesh import vertex_normals
-from naseview.landmarks import CURVE_NAMES, LANDMARKS
+from naseview.landmarks import CURVE_NAMES
 
 log = logging.getLogger(__name__)
 
 SKIN = (226, 192, 168)
 NOSE = SKIN  # the nose keeps the skin colour; the region is highlighted by its outline
 OUTLINE = (205, 110, 60)
-INSIDE = (70, 58, 58)
-ORIGINAL = (80, 130, 230)
+ORIGINAL = (60, 110, 220)
 LANDMARK_EDITABLE = (214, 38, 40)
 LANDMARK_FIXED = (140, 140, 140)
 LANDMARK_ACTIVE = (255, 214, 0)
 CURVE = (20, 160, 60)
 AD_LANDMARK = (40, 110, 220)
 SPHERE_RADIUS_MM = 1.1
+LABEL_LIFT_MM = 2.2
+"""Height of a landmark label above its sphere (mm)."""
+
+CONSTRUCTION = "/construction"
+"""Parent node of the construction overlays (curves, ad-landmarks, nose outline, cameras,
+fixed landmarks): hidden by default, shown by the panel's "Show construction"."""
+
+
+class NoseNode:
+    """The live nose GLB (:class:`~naseview.app.face_glb.FaceGlb`) as a node whose
+    ``vertices`` (k, 3) mm (the face's nose-part vertices, ``FaceScene.nose_ids``) can be
+    assigned: each assignment re-packs positions and normals and replaces the GLB."""
+
+    def __init__(self, scene: viser.SceneApi, name: str, parts: FaceGlb,
+                 base_V: np.ndarray, ids: np.ndarray) -> None:
+        self._scene = scene
+        self._name = name
+        self._parts = parts
+        self._base = np.asarray(base_V, np.float64)
+        self._ids = ids
+        self._vertices = self._base[ids].copy()
+        self._visible = True
+        self.handle: viser.GlbHandle = self._send()
+
+    def _send(self) -> viser.GlbHandle:
+        V = self._base.copy()
+        V[self._ids] = self._vertices
+        return self._scene.add_glb(self._name, self._parts.nose_glb(V),
+                                   visible=self._visible, cast_shadow=False,
+                                   receive_shadow=False)
+
+    @property
+    def vertices(self) -> np.ndarray:
+        """(k, 3) float32 vertices shown (mm), like a simple mesh handle's."""
+        return self._vertices.astype(np.float32)
+
+    @vertices.setter
+    def vertices(self, V: np.ndarray) -> None:
+        V = np.asarray(V, np.float64)
+        if V.shape == self._vertices.shape and np.array_equal(V, self._vertices):
+            return
+        self._vertices = V.copy()
+        self.handle = self._send()
+
+    @property
+    def visible(self) -> bool:
+        return self._visible
+
+    @visible.setter
+    def visible(self, on: bool) -> None:
+        self._visible = bool(on)
+        self.handle.visible = self._visible
+
+    def remove(self) -> None:
+        self.handle.remove()
 
 
 def split_region(F: np.ndarray, region: np.ndarray, n_vertices: int
@@ -118,51 +174,6 @@ def outline_smoother(edges: np.ndarray, iterations: int = 4) -> tuple[np.ndarray
     step = 0.5 * np.eye(n) + 0.5 * A / np.where(deg > 0, deg, 1.0)
     step[deg[:, 0] == 0] = np.eye(n)[deg[:, 0] == 0]
     return ids, np.linalg.matrix_power(step, max(0, int(iterations)))
-
-
-def hole_caps(V: np.ndarray, F: np.ndarray, keep_out: np.ndarray | None = None,
-              depth: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
-    """Recessed fans closing the holes of a mesh (eye and mouth openings).
-
-    Every boundary loop but the longest (the outer border) is closed by a fan to its
-    centroid, pushed ``depth`` x its mean radius into the face (against the mean
-    normal). Loops with a vertex in ``keep_out`` (e.g. vertices that move) are skipped.
-
-    Returns:
-        ``(Vc, Fc)``: (n, 3) cap vertices (loop vertices copied, then centres), (m, 3)
-        triangles; empty when the mesh has no such hole.
-    """
-    F = np.ascontiguousarray(F, dtype=np.int64)
-    loops = [np.asarray(lp, dtype=np.int64) for lp in igl.boundary_loop_all(F)]
-    if len(loops) < 2:
-        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
-
-    def perimeter(lp: np.ndarray) -> float:
-        P = V[lp]
-        return float(np.linalg.norm(P - np.roll(P, -1, axis=0), axis=1).sum())
-
-    loops.sort(key=perimeter)
-    out_V: list[np.ndarray] = []
-    out_F: list[np.ndarray] = []
-    n = 0
-    bad = set() if keep_out is None else set(np.asarray(keep_out).tolist())
-    N = vertex_normals(V, F)
-    for lp in loops[:-1]:
-        if bad.intersection(lp.tolist()):
-            continue
-        P = V[lp]
-        c = P.mean(axis=0)
-        nrm = N[lp].mean(axis=0)
-        nrm /= max(float(np.linalg.norm(nrm)), 1e-12)
-        r = float(np.linalg.norm(P - c, axis=1).mean())
-        k = len(lp)
-        out_V += [P, (c - depth * r * nrm)[None]]
-        i = np.arange(k)
-        out_F.append(np.column_stack([n + i, n + (i + 1) % k, np.full(k, n + k)]))
-        n += k + 1
-    if not out_F:
-        return np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64)
-    return np.concatenate(out_V), np.concatenate(out_F)
 
 
 _RDBU = np.array([[33, 102, 172], [103, 169, 207], [209, 229, 240], [247, 247, 247],
@@ -302,12 +313,14 @@ class FaceScene:
         photos: view -> (H, W, 3) uint8 RGB thumbnail shown in the frustum.
         region: vertices the solver may move (default ``baseline.nose_ids``); the nose
             mesh is every triangle touching them.
+        parts: the face's GLB parts (textured: :func:`naseview.app.face_look.face_look`);
+            default untextured skin for ``region``.
     """
 
     def __init__(self, scope: Scope, controller: EditController,
                  editable: Sequence[str], cameras: Mapping[str, Camera] | None = None,
                  photos: Mapping[str, np.ndarray] | None = None,
-                 region: np.ndarray | None = None) -> None:
+                 region: np.ndarray | None = None, parts: FaceGlb | None = None) -> None:
         self.scope = scope
         self.scene = scope.scene
         self.ctl = controller
@@ -317,7 +330,7 @@ class FaceScene:
         self.fixed = [i for i in base.landmarks if i not in self.editable]
         self._lock = threading.Lock()
         self.region = np.asarray(base.nose_ids if region is None else region, np.int64)
-        self.nose_ids, self.nose_F, self.rest_ids, rest_F = split_region(
+        self.nose_ids, self.nose_F, self.rest_ids, _ = split_region(
             base.F, self.region, len(base.V))
         self.normals = vertex_normals(base.V, base.F)
         self.show_colormap = False
@@ -330,19 +343,24 @@ class FaceScene:
         self._active: dict[int, tuple[str, np.ndarray]] = {}
 
         self.scene.set_up_direction("+y")
-        self.caps, self.rest, self.nose = self._add_face(rest_F)
+        self.parts = parts if parts is not None and np.array_equal(parts.region, self.region) \
+            else FaceGlb(base.V, base.F, self.region)
+        self.construction = self.scene.add_frame(CONSTRUCTION, show_axes=False,
+                                                 visible=False)
+        self.rest, self.nose = self._add_face()
         self.original = self._add_original()
         self.colormap: viser.GlbHandle | None = None
         self.outline = self._add_outline()
         lms = controller.landmarks
         self.spheres, self.fixed_spheres = self._add_spheres(lms)
         self.labels = {
-            i: self.scene.add_label(f"/labels/{i}",
-                                    LANDMARKS[i].paper if i in LANDMARKS else i,
-                                    position=lms[i] + np.array([0.0, 1.6, 0.0]),
-                                    visible=False, font_screen_scale=0.8,
+            i: self.scene.add_label(f"/labels/{i}", display_name(i),
+                                    position=self._label_position(i, lms[i]),
+                                    visible=False, font_screen_scale=1.25,
                                     anchor="bottom-center")
             for i in base.landmarks}
+        self.show_labels = False
+        self._active_label: str | None = None
         self.curves = self._add_curves()
         self.ad = self._add_ad_landmarks()
         self.frustums: dict[str, viser.CameraFrustumHandle] = {}
@@ -351,38 +369,31 @@ class FaceScene:
         controller.on_simulation.append(self.update)
         controller.on_landmarks.append(self.set_landmarks)
 
-    def _add_face(self, rest_F: np.ndarray) -> tuple[viser.MeshHandle | None,
-                                                     viser.MeshHandle, viser.MeshHandle]:
-        """Hole caps, the static rest of the face and the live nose mesh."""
-        base = self.base
-        # dark recessed caps in the eye and mouth openings (not in the moving part)
-        cv, cf = hole_caps(base.V, base.F, keep_out=self.nose_ids)
-        caps = self.scene.add_mesh_simple("/face/caps", cv, cf, color=INSIDE, side="double",
-                                          cast_shadow=False, receive_shadow=False) \
-            if len(cf) else None
-        rest = self.scene.add_mesh_simple("/face/rest", base.V[self.rest_ids], rest_F,
-                                          color=SKIN, flat_shading=False, side="front",
-                                          cast_shadow=False, receive_shadow=False)
-        nose = self.scene.add_mesh_simple("/face/nose", base.V[self.nose_ids], self.nose_F,
-                                          color=NOSE, flat_shading=False, side="double",
-                                          cast_shadow=False, receive_shadow=False)
-        return caps, rest, nose
+    def _add_face(self) -> tuple[viser.GlbHandle, NoseNode]:
+        """The static rest of the face (eye and mouth openings capped) and the live nose,
+        both from :class:`FaceGlb` (one skin, normals of the whole face: no seam)."""
+        rest = self.scene.add_glb("/face/rest", self.parts.rest_glb(), cast_shadow=False,
+                                  receive_shadow=False)
+        nose = NoseNode(self.scene, "/face/nose", self.parts, self.base.V, self.nose_ids)
+        return rest, nose
 
-    def _add_original(self) -> viser.MeshHandle:
-        """The original nose (triangles inside the nose region), lifted 0.08 mm along the
-        normals so it does not z-fight where nothing changed; hidden until asked for."""
+    def _add_original(self) -> viser.LineSegmentsHandle:
+        """A ghost of the original nose: its contour lines (:mod:`naseview.app.ghost`),
+        lifted 0.15 mm along the normals so they stay on top where nothing changed;
+        hidden until asked for."""
         base = self.base
         inside = np.zeros(len(base.V), dtype=bool)
         inside[np.asarray(base.nose_ids, np.int64)] = True
         gF = np.asarray(base.F, np.int64)[inside[base.F].all(axis=1)]
         if len(gF) == 0:
             gF = np.asarray(base.F, np.int64)[inside[base.F].any(axis=1)]
-        g_ids = np.unique(gF)
-        ghost = base.V[g_ids] + 0.08 * self.normals[g_ids]
-        return self.scene.add_mesh_simple(
-            "/face/original", ghost, np.searchsorted(g_ids, gF), color=ORIGINAL, opacity=0.3,
-            flat_shading=False, side="front", visible=False, cast_shadow=False,
-            receive_shadow=False)
+        lifted = base.V + 0.15 * self.normals
+        segs = ghost_segments(lifted, gF) if len(gF) else np.zeros((0, 2, 3))
+        if not len(segs):
+            segs = np.zeros((1, 2, 3))
+        return self.scene.add_line_segments("/face/original", segs, ORIGINAL,
+                                            thickness=1.6, thickness_units="screen",
+                                            visible=False)
 
     def _add_outline(self) -> viser.LineSegmentsHandle | None:
         """The smoothed outline of the nose region (None when it has no border)."""
@@ -391,7 +402,7 @@ class FaceScene:
         self._outline_ids, self._outline_S = outline_smoother(edges)
         self._outline_loc = np.searchsorted(self._outline_ids, edges)
         return self.scene.add_line_segments(
-            "/face/nose_outline", self._outline_points(base.V), OUTLINE, thickness=2.0,
+            f"{CONSTRUCTION}/nose_outline", self._outline_points(base.V), OUTLINE, thickness=2.0,
             thickness_units="screen") if len(edges) else None
 
     def _add_spheres(self, lms: Landmarks) -> tuple[viser.BatchedMeshHandle | None,
@@ -412,7 +423,7 @@ class FaceScene:
         fixed = None
         if self.fixed:
             fixed = self.scene.add_batched_meshes_simple(
-                "/landmarks/fixed", sv, sf,
+                f"{CONSTRUCTION}/fixed_landmarks", sv, sf,
                 batched_wxyzs=np.repeat(unit, len(self.fixed), axis=0),
                 batched_positions=np.array([lms[i] for i in self.fixed]),
                 batched_colors=LANDMARK_FIXED, cast_shadow=False, receive_shadow=False)
@@ -426,7 +437,7 @@ class FaceScene:
             if c is None or len(c) < 2:
                 continue
             out[name] = self.scene.add_line_segments(
-                f"/curves/{name}", curve_segments(c, name.startswith("sill")), CURVE,
+                f"{CONSTRUCTION}/curves/{name}", curve_segments(c, name.startswith("sill")), CURVE,
                 thickness=2.5, thickness_units="screen")
         return out
 
@@ -435,7 +446,7 @@ class FaceScene:
         if not len(self.base.ad_landmarks):
             return None
         return self.scene.add_point_cloud(
-            "/ad_landmarks", np.asarray(self.base.ad_landmarks), AD_LANDMARK,
+            f"{CONSTRUCTION}/ad_landmarks", np.asarray(self.base.ad_landmarks), AD_LANDMARK,
             point_size=0.6, point_shape="circle", precision="float32",
             point_shading="flat")
 
@@ -446,12 +457,12 @@ class FaceScene:
             wxyz, pos = camera_pose(cam)
             fov = 2.0 * np.arctan2(cam.height / 2.0, cam.K[1, 1])
             self.frustums[view] = self.scene.add_camera_frustum(
-                f"/cameras/{view}", fov=float(fov), aspect=cam.width / cam.height,
+                f"{CONSTRUCTION}/cameras/{view}", fov=float(fov), aspect=cam.width / cam.height,
                 scale=40.0, thickness=1.5, thickness_units="screen", color=(60, 60, 60),
                 image=photos.get(view), format="jpeg", jpeg_quality=80, wxyz=wxyz,
                 position=pos)
             self._camera_labels.append(self.scene.add_label(
-                f"/cameras/{view}/label", view, position=(0.0, 0.0, 0.0),
+                f"{CONSTRUCTION}/cameras/{view}/label", view, position=(0.0, 0.0, 0.0),
                 font_screen_scale=0.8))
 
     # drag
@@ -469,6 +480,7 @@ class FaceScene:
             self._active[key] = (lid, centre - np.asarray(event.start_position, dtype=float))
             self.ctl.begin_drag(lid)
             self._highlight(lid)
+            self._show_active_label(lid)
             return
         active = self._active.get(key)
         if active is None or active[0] != lid:
@@ -478,6 +490,7 @@ class FaceScene:
             self._active.pop(key, None)
             self.ctl.end_drag()
             self._highlight(None)
+            self._show_active_label(None)
 
     def _highlight(self, lid: str | None) -> None:
         if self.spheres is None:
@@ -485,6 +498,38 @@ class FaceScene:
         colors = np.array([LANDMARK_ACTIVE if i == lid else LANDMARK_EDITABLE
                            for i in self.editable], dtype=np.uint8)
         self.spheres.batched_colors = colors
+
+    # labels
+    def _label_position(self, lid: str, p: np.ndarray) -> np.ndarray:
+        """(3,) label anchor of landmark ``lid`` at ``p`` (mm): above the sphere and pushed
+        away from the nose's centre (left landmarks to the left, the tip forwards), so the
+        labels around the tip do not pile up on each other."""
+        nose = self.base.V[self.nose_ids] if len(self.nose_ids) else self.base.V
+        c = nose.mean(axis=0)
+        d = np.asarray(p, np.float64) - c
+        d[1] = 0.0
+        n = float(np.linalg.norm(d))
+        out = d / n * 3.0 if n > 1e-6 else np.zeros(3)
+        return np.asarray(p, np.float64) + out + np.array([0.0, LABEL_LIFT_MM, 0.0])
+
+    def _label_wanted(self, lid: str) -> bool:
+        """A label shows when the labels are on (the editable landmarks: the ones the
+        surgeon moves) or while its landmark is dragged."""
+        return lid == self._active_label or (self.show_labels and lid in self.editable)
+
+    def _refresh_labels(self) -> None:
+        lms = self.ctl.landmarks
+        for i, h in self.labels.items():
+            want = self._label_wanted(i)
+            if want:
+                h.position = self._label_position(i, lms[i])
+            if h.visible != want:
+                h.visible = want
+
+    def _show_active_label(self, lid: str | None) -> None:
+        """The dragged landmark's label (``None``: the drag ended)."""
+        self._active_label = lid
+        self._refresh_labels()
 
     # updates
     def set_landmarks(self, lms: Landmarks) -> None:
@@ -495,7 +540,7 @@ class FaceScene:
             self.fixed_spheres.batched_positions = np.array([lms[i] for i in self.fixed])
         for i, h in self.labels.items():
             if h.visible:
-                h.position = lms[i] + np.array([0.0, 1.6, 0.0])
+                h.position = self._label_position(i, lms[i])
 
     def shown_vertices(self, sim: Simulation) -> np.ndarray:
         """(N, 3) vertices shown for ``sim`` (mm): the simulation, or ``blend`` of the way
@@ -510,8 +555,6 @@ class FaceScene:
             V = self.shown_vertices(sim)
             with self.scope.atomic():
                 self.nose.vertices = V[self.nose_ids]
-                if np.any(sim.V[self.rest_ids] != self.base.V[self.rest_ids]):
-                    self.rest.vertices = V[self.rest_ids]
 
     def update(self, sim: Simulation) -> None:
         """Push a solved state: nose vertices, curves, ad-landmarks (and the colour map)."""
@@ -520,8 +563,6 @@ class FaceScene:
             with self.scope.atomic():
                 if not self.show_original:
                     self.nose.vertices = V[self.nose_ids]
-                if np.any(V[self.rest_ids] != self.base.V[self.rest_ids]):
-                    self.rest.vertices = V[self.rest_ids]
                 for name, h in self.curves.items():
                     c = sim.curves.get(name)
                     if c is not None and len(c) >= 2:
@@ -577,14 +618,17 @@ class FaceScene:
 
     def set_visible(self, *, labels: bool | None = None, curves: bool | None = None,
                     ad_landmarks: bool | None = None, cameras: bool | None = None,
-                    landmarks: bool | None = None, highlight: bool | None = None) -> None:
-        """Show / hide groups of the scene."""
+                    landmarks: bool | None = None, highlight: bool | None = None,
+                    construction: bool | None = None) -> None:
+        """Show / hide groups of the scene. ``construction`` shows the construction
+        overlays as a whole (:data:`CONSTRUCTION`); ``curves``, ``ad_landmarks``,
+        ``cameras`` and ``highlight`` (the nose outline) choose among them; ``landmarks``
+        is the draggable spheres (and the fixed ones, when construction is shown)."""
+        if construction is not None:
+            self.construction.visible = construction
         if labels is not None:
-            lms = self.ctl.landmarks
-            for i, h in self.labels.items():
-                if labels:
-                    h.position = lms[i] + np.array([0.0, 1.6, 0.0])
-                h.visible = labels
+            self.show_labels = labels
+            self._refresh_labels()
         if curves is not None:
             _show(self.curves.values(), curves)
         if ad_landmarks is not None:
@@ -595,7 +639,6 @@ class FaceScene:
             _show([self.spheres, self.fixed_spheres], landmarks)
         if highlight is not None:
             self.highlight = highlight
-            self.nose.color = NOSE if highlight else SKIN
             _show([self.outline], highlight)
 
     def remove(self) -> None:
@@ -605,10 +648,10 @@ class FaceScene:
         if self.set_landmarks in self.ctl.on_landmarks:
             self.ctl.on_landmarks.remove(self.set_landmarks)
         handles: list[viser.SceneNodeHandle | None] = [
-                   self.caps, self.rest, self.nose, self.outline, self.original,
+                   self.rest, self.nose.handle, self.outline, self.original,
                    self.colormap, self.spheres, self.fixed_spheres, self.ad,
                    *self.labels.values(), *self.curves.values(), *self._camera_labels,
-                   *self.frustums.values()]
+                   *self.frustums.values(), self.construction]
         for h in handles:
             if h is not None:
                 try:

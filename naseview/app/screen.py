@@ -30,6 +30,7 @@ import numpy as np
 import viser
 
 from naseview.app.annotate_page import AnnotatePage
+from naseview.app.face_look import face_look, look_export
 from naseview.app.gui_value import set_value
 from naseview.app.panels import (
     Panels,
@@ -39,12 +40,22 @@ from naseview.app.panels import (
     residual_markdown,
 )
 from naseview.app.patient_mode import PatientMode
+from naseview.app.photo_sim import PhotoSimulation, SimInputs, sim_inputs
 from naseview.app.scene import NOSE, SKIN, FaceScene, nice_limit, signed_displacement
 from naseview.app.scope import NoticeColor, notify
+from naseview.app.viewer import (
+    DEFAULT_VIEW,
+    SCALE_BAR_MM,
+    camera_of_view,
+    scale_bar_segments,
+    view_png,
+    view_pose,
+)
 from naseview.case import Case
 from naseview.editing.baseline import Baseline, Simulation
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
+from naseview.landmarks import VIEWS
 
 if TYPE_CHECKING:
     from naseview.app.serve import NaseviewApp
@@ -54,19 +65,17 @@ log = logging.getLogger(__name__)
 PATIENT_SCREEN_PATH = "/patient"
 """Websocket path of the patient screen (the page's own address stays ``/``)."""
 
-NOSE_VIEW_FOV_DEG = 35.0
-"""Vertical field of view of the default view of the nose (degrees)."""
+SCALE_BAR_COLOR = (40, 40, 40)
+PNG_HEIGHT = 900
+"""Height (px) of "Save view as PNG"."""
 
 
 def nose_view(baseline: Baseline) -> tuple[np.ndarray, np.ndarray, float]:
-    """Default view of a face: ``(look_at (3,), eye (3,), fov rad)``, SPEC frame (mm, +y
-    up): a three-quarter view of the nose from the subject's left, the nose filling it."""
-    nose = baseline.V[baseline.nose_ids] if len(baseline.nose_ids) else baseline.V
-    target = nose.mean(axis=0)
-    size = float(np.ptp(nose, axis=0).max()) if len(nose) else 60.0
-    direction = np.array([0.5, 0.1, 1.0]) / np.linalg.norm([0.5, 0.1, 1.0])
-    eye = target + direction * max(150.0, 5.0 * size)
-    return target, eye, float(np.radians(NOSE_VIEW_FOV_DEG))
+    """Default view of a face: ``(look_at (3,), eye (3,), vertical fov rad)``, SPEC frame
+    (mm, +y up): the standard :data:`~naseview.app.viewer.DEFAULT_VIEW` (three-quarter
+    from the subject's left), the nose centred and filling ~60 % of the view height."""
+    target, eye, fov, _ = view_pose(baseline.V, baseline.nose_ids, DEFAULT_VIEW)
+    return target, eye, fov
 
 
 def _request_of(server: viser.ViserServer, client: viser.ClientHandle) -> Any:
@@ -132,6 +141,15 @@ class Screen:
         set_value(self.panels.interactive_iters, app.interactive_iterations)
         self.patient = PatientMode(client, self, app.work_dir)
         self._build_patient_folder()
+        self.view_name = DEFAULT_VIEW
+        self._scale_bar: list[viser.SceneNodeHandle] = []
+        self.photo_sim = PhotoSimulation(self._sim_inputs, VIEWS)
+        with self.panels.photo_sim_folder:
+            self.client.gui.add_markdown("The simulated nose on the patient's photo "
+                                         "(updated when a drag ends).")
+            self.photo_sim.add_display(self.client.gui)
+        with self.patient.panel.add_tab("On the photos", icon=viser.Icon.PHOTO):
+            self.photo_sim.add_display(self.client.gui)
 
     def _build_patient_folder(self) -> None:
         """"Patient" at the top of the panel: new patient, patient mode and screen,
@@ -198,8 +216,10 @@ class Screen:
         with self._lock:
             self.shown.clear()
             self._drop_scene()
+            look = face_look(app)
             scene = FaceScene(self.client, ctl, app.editable, app.cameras, app.photos,
-                              region=app.moving)
+                              region=app.moving,
+                              parts=look.parts if look is not None else None)
             if ctl.simulation.generation == ctl.generation:
                 scene.update(ctl.simulation)
             self.scene = scene
@@ -211,6 +231,7 @@ class Screen:
             if not annotating:           # the page frames its photo; it resets on close
                 self.reset_camera()
         self._show_texts()
+        self.photo_sim.request()
         if self.patient_screen or self.patient.active:
             self.patient.enter()
         self.shown.set()
@@ -223,6 +244,7 @@ class Screen:
                 ctl.on_simulation.remove(self._on_simulation)
             if self._on_history in ctl.on_history:
                 ctl.on_history.remove(self._on_history)
+        self._remove_scale_bar()
         scene, self.scene = self.scene, None
         if scene is not None:
             try:
@@ -258,6 +280,7 @@ class Screen:
             if sim.warnings:
                 text += "\n\n⚠ " + " ".join(w.removeprefix("stage 3: ") for w in sim.warnings)
             p.edit_info.content = text
+            self.photo_sim.request()          # a final solve: recomposite the photos
             if self.patient.active:
                 self.patient.refresh()
 
@@ -297,7 +320,8 @@ class Screen:
         if self.scene is None:
             return
         p = self.panels
-        self.scene.set_visible(labels=p.labels.value, curves=p.show_curves.value,
+        self.scene.set_visible(construction=p.show_construction.value,
+                               labels=p.labels.value, curves=p.show_curves.value,
                                ad_landmarks=p.show_ad.value, cameras=p.show_cameras.value,
                                landmarks=p.show_landmarks.value, highlight=p.highlight.value)
         self.scene.set_view(colormap=p.colormap.value, original=p.show_original.value,
@@ -305,19 +329,85 @@ class Screen:
 
     def reset_camera(self) -> None:
         """This tab's camera on the default view of the nose (:func:`nose_view`)."""
+        self.show_standard_view(DEFAULT_VIEW)
+
+    def show_standard_view(self, view: str) -> None:
+        """This tab's camera on a standard view of the nose
+        (:data:`naseview.camera.STANDARD_VIEWS`), the scale bar facing it."""
         ctl = self.app.controller
         if ctl is None:
             return
-        target, eye, fov = nose_view(ctl.baseline)
+        base = ctl.baseline
+        target, eye, fov, R = view_pose(base.V, base.nose_ids, view)
+        self.view_name = view
         cam = self.client.camera
         with self.client.atomic():
             cam.fov = fov
-            cam.near = 1.0
+            cam.near = 5.0
             cam.far = 5000.0
             # position first: viser moves look_at along with a position update
             cam.position = (float(eye[0]), float(eye[1]), float(eye[2]))
             cam.look_at = (float(target[0]), float(target[1]), float(target[2]))
             cam.up_direction = (0.0, 1.0, 0.0)
+        self._place_scale_bar(ctl.simulation.V, base.nose_ids, R)
+
+    def _remove_scale_bar(self) -> None:
+        for h in self._scale_bar:
+            try:
+                h.remove()
+            except Exception:  # the tab went away
+                log.debug("naseview: scale bar already gone", exc_info=True)
+        self._scale_bar = []
+
+    def _place_scale_bar(self, V: np.ndarray, nose_ids: np.ndarray, R: np.ndarray) -> None:
+        """A 10 mm bar beside the nose in the plane facing the view of rotation ``R``."""
+        self._remove_scale_bar()
+        segs, label_at = scale_bar_segments(V, nose_ids, R)
+        left_side = float(np.dot(label_at - segs[0, 0], R[0])) < 0
+        scene = self.client.scene
+        self._scale_bar = [
+            scene.add_line_segments("/scale_bar/bar", segs, SCALE_BAR_COLOR, thickness=3.0,
+                                    thickness_units="screen"),
+            scene.add_label("/scale_bar/label", f"{SCALE_BAR_MM:g} mm",
+                            position=np.asarray(label_at, np.float64),
+                            font_screen_scale=1.2,
+                            anchor="center-right" if left_side else "center-left")]
+
+    def save_view_png(self, client: viser.ClientHandle | None = None) -> None:
+        """A PNG of this tab's current view (software renderer through its camera,
+        textured when photos exist), sent as a download (in the background)."""
+        ctl = self.app.controller
+        if ctl is None:
+            raise NaseviewError("nothing to save yet: the reconstruction is not ready")
+        c = self.client.camera
+        cam = camera_of_view(c.position, c.look_at, c.up_direction, c.fov, c.aspect,
+                             PNG_HEIGHT)
+        V, F = ctl.simulation.V.copy(), ctl.baseline.F
+        look = face_look(self.app)
+        name = (self.app.case_id.replace("/", "_") or "case") + f"-{self.view_name}.png"
+        target = client or self.client
+
+        def job() -> None:
+            try:
+                data = view_png(V, F, cam, look.texture if look is not None else None)
+                target.send_file_download(name, data, save_immediately=True)
+            except Exception as e:
+                log.exception("naseview: view PNG failed")
+                self.notify(f"Saving the view failed: {e}", "red")
+
+        threading.Thread(target=job, name="naseview-view-png", daemon=True).start()
+
+    def _sim_inputs(self, view: str) -> SimInputs | None:
+        """What the photo composite of ``view`` needs now (None: nothing to show)."""
+        app = self.app
+        ctl = app.controller
+        look = face_look(app) if ctl is not None else None
+        if ctl is None or look is None:
+            return None
+        sim = ctl.simulation
+        return sim_inputs(look.photos, app.cameras, ctl.baseline.V, sim.V, ctl.baseline.F,
+                          app.moving if len(app.moving) else ctl.baseline.nose_ids,
+                          (sim.generation, sim.revision), view)
 
     def show_photo(self, view: str) -> None:
         """Photo of ``view`` with clicks, reprojected landmarks / curves and residuals."""
@@ -392,6 +482,12 @@ class Screen:
 
     def download(self, client: viser.ClientHandle | None, kind: str, fmt: str,
                  **kw: str) -> None:
+        """An export: ``kind`` "textured" / "solid" here (:func:`look_export`), the
+        others through the app."""
+        if kind in ("textured", "solid"):
+            fname, data = look_export(self.app, kind, fmt, **kw)
+            (client or self.client).send_file_download(fname, data, save_immediately=True)
+            return
         self.app.download(client or self.client, kind, fmt, **kw)
 
     # lifecycle
@@ -402,7 +498,7 @@ class Screen:
             if self.closed:
                 return
             self.closed = True
-            for step in (self.patient.close, self._drop_scene,
+            for step in (self.patient.close, self.photo_sim.close, self._drop_scene,
                          self.annotate.close if self.annotate is not None else None):
                 if step is None:
                     continue

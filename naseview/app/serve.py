@@ -22,6 +22,8 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import os
+import re
 import threading
 import time
 import traceback
@@ -42,9 +44,14 @@ from naseview.app.export import (
     measurements_json,
     mesh_file,
 )
+from naseview.app.face_look import prepare_face_look
 from naseview.app.guard import guarded_viser_server
 from naseview.app.gui_value import set_value
 from naseview.app.landmark_diagrams import LandmarkDiagrams
+from naseview.app.landmark_names import display_name
+from naseview.app.markdown_text import markdown_text
+from naseview.app.patient_work import PatientWork
+from naseview.app.patients_panel import PatientsPanel
 from naseview.app.screen import PATIENT_SCREEN_PATH, Screen, connection_path, nose_view
 from naseview.camera import Camera
 from naseview.case import Case, read_case
@@ -61,6 +68,7 @@ from naseview.errors import NaseviewError
 from naseview.facemodel import store
 from naseview.facemodel.ict import ICT_CREDIT
 from naseview.intake.patients import PatientFolders
+from naseview.landmarks import LANDMARKS
 from naseview.pipeline import PipelineParams, PipelineResult, reconstruct
 from naseview.reconstruction import output_case_dir
 from naseview.stage1_landmarks import SfmResult
@@ -153,6 +161,33 @@ def _suspect_messages(sfm: SfmResult | None) -> list[str]:
     return [s.message() for s in sfm.suspect_clicks] if sfm is not None else []
 
 
+def reconstruction_summary(case_id: str, seconds: float, rmse_px: float | None,
+                           warnings: list[str], most: int = 6) -> str:
+    """The status a surgeon reads after a reconstruction: a plain first line, then the
+    pipeline's warnings as "notes to check" with landmarks named in words.
+
+    >>> print(reconstruction_summary("P001", 1.23, 0.85,
+    ...       ["landmark 'int_l' is clicked in photo 'left' only; click it in a second photo"]))
+    **P001** is ready (reconstructed in 1.2 s; the clicks fit the photos to 0.85 px).
+    <BLANKLINE>
+    Notes to check (1):
+    - landmark Alar groove, top (L) is clicked in photo 'left' only; click it in a second photo
+    """
+    fit = f"; the clicks fit the photos to {rmse_px:.2f} px" if rmse_px is not None else ""
+    lines = [f"**{case_id}** is ready (reconstructed in {seconds:.1f} s{fit})."]
+    if warnings:
+        lines += ["", f"Notes to check ({len(warnings)}):"]
+        lines += [f"- {_named(w.removeprefix('stage 3: '))}" for w in warnings[:most]]
+    return "\n".join(lines)
+
+
+def _named(text: str) -> str:
+    """``text`` with each quoted landmark id (``'int_l'``) replaced by its readable name."""
+    return re.sub(r"'([a-z]+(?:_[lr])?)'",
+                  lambda m: display_name(m.group(1)) if m.group(1) in LANDMARKS
+                  else m.group(0), text)
+
+
 class NaseviewApp:
     """The served app: the patient's case, editor and background jobs, and one
     :class:`~naseview.app.screen.Screen` per browser tab.
@@ -196,6 +231,9 @@ class NaseviewApp:
         self.start_new_patient = False
         """A tab that connects while no case is open starts on the new-patient page."""
         self.work_dir = PatientFolders(work_dir).root
+        self.work = PatientWork(self.work_dir)
+        """The open patient's kept work (reconstruction, autosaved simulation)."""
+        self.patients_panels: dict[int, PatientsPanel] = {}
         self.diagrams = LandmarkDiagrams(model)
         self.screens: dict[int, Screen] = {}
         self.status = "Starting…"
@@ -229,6 +267,7 @@ class NaseviewApp:
                     screen.close()                    # it went while being built
                     return
                 self.screens[client.client_id] = screen
+                self.patients_panels[client.client_id] = PatientsPanel(self, screen)
                 if self.controller is not None:
                     screen.show_case()
                 elif self.start_new_patient and self.controller is None and not patient:
@@ -241,6 +280,9 @@ class NaseviewApp:
         """A tab went away: release its screen (listeners, turntable, page threads)."""
         with self._lock:
             screen = self.screens.pop(client.client_id, None)
+            panel = self.patients_panels.pop(client.client_id, None)
+        if panel is not None:
+            panel.close()
         if screen is not None:
             screen.close()
 
@@ -291,13 +333,21 @@ class NaseviewApp:
         """Open a case directory, a reconstruction directory or a session file
         (``None``: the bundled demo case) for every tab; ``asker`` is the tab that
         asked (it gets the errors). Case directories reconstruct in the background."""
-        self._fresh = True  # a new case: new editor (a recompute keeps the edits)
         if path is None:
             path = demo_case_dir()
             if not (path / "case.json").is_file():
                 raise NaseviewError(f"{path}: the bundled demo case is missing; pass a case "
                                     "directory: naseview serve CASE_DIR")
         path = Path(path)
+        target = self.work.target_of(path)
+        if target is not None:                 # a patient folder or one of its simulations
+            self.open_patient(target[0], target[1], asker)
+            return
+        if (path / "case.json").is_file() and not _same_path(path, demo_case_dir()):
+            self.open_patient(self.work.records.patient_for_case(path), None, asker)
+            return
+        self._fresh = True  # a new case: new editor (a recompute keeps the edits)
+        self.work.forget()  # the demo, a session file, a reconstruction folder: not kept
         self.source = path
         if path.is_file() and is_session_file(path):
             self._open_session(path, asker)
@@ -315,6 +365,86 @@ class NaseviewApp:
             raise NaseviewError(f"{path}: no case.json, reconstruction.json or session "
                                 "file here; pass a case directory (SPEC §3), a `naseview "
                                 "reconstruct` output directory or a session file")
+
+    def open_patient(self, pid: str, slug: str | None = None,
+                     asker: Screen | None = None) -> None:
+        """Open patient ``pid`` of the work folder for every tab: simulation ``slug``
+        (default its latest), on its saved reconstruction when that was made from its
+        case as it is now (no pipeline run), else reconstructed (and saved) first. The
+        simulation open until now is saved first.
+
+        Raises:
+            NaseviewError: no such patient, an unreadable simulation, or a patient
+                without a case or simulation.
+        """
+        plan = self.work.begin(pid, slug)
+        self._fresh = True
+        self.source = plan.case_dir or self.work.records.folders.patient_dir(pid)
+        self.suspect_messages = []
+        if plan.problems:
+            self.show_error(" · ".join(plan.problems), asker)
+        session = plan.session
+        if plan.case_dir is not None:
+            self._open_case_from(lambda: plan.case_dir)
+        else:
+            self._open_case_from(lambda: None)
+        self.case_id = self.case.id if self.case is not None else pid
+        if session is not None:
+            self._apply_param_values(session.app.get("params", {}), str(session.path))
+            self.credit = str(session.app.get("credit", self.credit))
+            name = session.record.name if session.record else slug
+            self.set_status(f"Patient **{pid}**: opening {name}…")
+            self._start_job(lambda seq: self._install(session.baseline, session, seq),
+                            "Opening the simulation", asker)
+        elif plan.reconstruction_dir is not None:
+            folder = plan.reconstruction_dir
+            self.set_status(f"Patient **{pid}**: opening the saved reconstruction…")
+
+            def job(seq: int) -> None:
+                baseline = baseline_from_output_dir(folder)
+                rec = baseline.reconstruction
+                mesh = rec.extra.get("mesh", {}) if rec else {}
+                self.credit = str(mesh.get("credit", "") if isinstance(mesh, dict) else "")
+                self._install(baseline, None, seq)
+
+            self._start_job(job, "Opening the patient", asker)
+        else:
+            self.reconstruct(asker)
+
+    def new_simulation(self, asker: Screen | None = None) -> None:
+        """A new simulation of the open patient: its reconstruction without edits,
+        autosaved as "Simulation N" (the open one is saved first)."""
+        ctl = self.controller
+        self.work.require_open()
+        if ctl is None:
+            raise NaseviewError("nothing is open yet: wait for the reconstruction")
+        self.work.stop_autosave()
+        self._fresh = True
+        baseline = ctl.baseline
+        self._start_job(lambda seq: self._install(baseline, None, seq), "New simulation",
+                        asker)
+
+    def duplicate_simulation(self, asker: Screen | None = None) -> None:
+        """A copy of the open simulation as it is now; the copy is opened."""
+        pid, _ = self.work.require_open()
+        info = self.work.duplicate()
+        self.open_patient(pid, info.slug, asker)
+
+    def delete_simulation(self, asker: Screen | None = None) -> Path:
+        """Move the open simulation to the patient's trash and open the latest other one
+        (a new one when there is none); returns where it went."""
+        pid, auto = self.work.require_open()
+        gone = auto.slug
+        others = [i for i in self.work.simulations() if i.slug != gone and i.problem is None
+                  and i.reconstruction_sha256 == self.work.reconstruction_sha256]
+        if others:
+            self.work.stop_autosave()
+            where = self.work.delete(pid, gone)
+            self.open_patient(pid, others[0].slug, asker)
+        else:
+            self.new_simulation(asker)
+            where = self.work.delete(pid, gone)
+        return where
 
     def _open_session(self, path: Path, asker: Screen | None) -> None:
         """A saved session: its baseline and edits exactly, photos from its case."""
@@ -343,6 +473,7 @@ class NaseviewApp:
                       case_id: str = "case", credit: str = "") -> None:
         """Edit an in-memory :class:`Baseline` (tests, benchmarks, notebooks); ``case``
         optionally supplies the photos. Installs in the background like :meth:`open`."""
+        self.work.forget()
         self.case = case
         self.case_id = case_id
         self.credit = credit
@@ -429,16 +560,16 @@ class NaseviewApp:
             return
         self.suspect_messages = _suspect_messages(result.sfm)
         self.credit = _credit(self.model, result)
+        try:
+            self.work.reconstructed(result)    # kept in the patient folder (all or nothing)
+        except NaseviewError as e:
+            self.show_error(f"The reconstruction was not saved: {e}")
         baseline = baseline_from_pipeline(result)
         self.set_progress(0.92)
         self._install(baseline, None, seq)
-        took = time.perf_counter() - t0
-        lines = [f"Reconstructed **{self.case_id}** in {took:.1f} s"]
         rmse = baseline.reconstruction.reprojection_rmse_px if baseline.reconstruction else None
-        if rmse is not None:
-            lines[0] += f", reprojection RMS {rmse:.2f} px"
-        lines += [f"- {w}" for w in list(result.warnings)[:6]]
-        self.set_status("\n".join(lines))
+        self.set_status(reconstruction_summary(self.case_id, time.perf_counter() - t0, rmse,
+                                               list(result.warnings)))
 
     # installing
     def _install(self, baseline: Baseline, session: Session | None, seq: int) -> None:
@@ -449,6 +580,7 @@ class NaseviewApp:
         if seq != self._job_seq:
             return
         with self._lock:
+            previous = self.controller
             ctl = self._controller_for(baseline, session, solver)
             lim = self.refine_params.max_handle_displacement_mm
             ctl.max_displacement_mm = float(lim) if lim else None
@@ -465,8 +597,20 @@ class NaseviewApp:
             self.edit_help = ("Drag a **red** sphere to reshape the nose"
                               + (f" (grey = fixed: {', '.join(fixed)})" if fixed else "") + ".")
             self._initial_camera(baseline)
+            prepare_face_look(self)      # the texture, baked once here for every tab
             self._each_screen(lambda s: s.show_case())
-        if session is not None:
+        if ctl is not previous:          # a new editor: autosaved (a rebase keeps its own)
+            try:
+                self.work.attach(ctl, self.app_state)
+            except NaseviewError as e:
+                self.show_error(f"The simulation is not being saved: {e}")
+        kept = self.work.autosave
+        if kept is not None and ctl is not previous and (session is not None or
+                                                          self.work.reconstruction_sha256):
+            what = "reopened" if session is not None else "started on the saved reconstruction"
+            self.set_status(f"**{markdown_text(self.case_id)}**: {markdown_text(kept.name)} "
+                            f"{what}.")
+        elif session is not None:
             self.set_status(f"Session **{self.case_id}** reopened.")
         elif self.case is None or self.source is not None and \
                 (self.source / "reconstruction.json").is_file():
@@ -652,8 +796,17 @@ class NaseviewApp:
             screen.close()
         if self._param_timer is not None:
             self._param_timer.cancel()
+        try:
+            self.work.close()                   # the last change is on disk
+        except Exception:
+            log.warning("naseview: saving on shutdown failed:\n%s", traceback.format_exc())
         if self.controller is not None:
             self.controller.close()
+
+
+def _same_path(a: Path, b: Path) -> bool:
+    """Whether two paths name the same folder (symbolic links followed)."""
+    return Path(os.path.realpath(a)) == Path(os.path.realpath(b))
 
 
 def start_app(path: Path | None, host: str = "127.0.0.1", port: int = 8080,

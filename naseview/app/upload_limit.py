@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 import viser
 from viser._messages import FileTransferPart, FileTransferPartAck, FileTransferStartUpload
@@ -51,18 +51,30 @@ class _Transfer:
     declared: int
 
 
+class UploadScope(Protocol):
+    """What :class:`UploadLimit` needs of a viser scope: its ``gui`` (where the upload
+    buttons buffer their transfers) and the tabs it reaches. A ``viser.ViserServer``
+    (every tab) is one; :class:`naseview.app.scope.ClientAsServer` (one tab) another."""
+
+    @property
+    def gui(self) -> viser.GuiApi: ...
+
+    def get_clients(self) -> Mapping[int, viser.ClientHandle]: ...
+
+
 class UploadLimit:
     """Refuse uploads to the watched buttons as soon as they exceed ``max_bytes``.
 
     Args:
-        server: the viser server.
+        server: the scope the watched buttons live in (the server, or one tab as
+            :class:`~naseview.app.scope.ClientAsServer`).
         max_bytes: the largest file accepted.
         on_refused: called (on the event loop) with the client, the file name and the
             size that was refused.
         max_in_flight: transfers to the watched buttons that may stream at once.
     """
 
-    def __init__(self, server: viser.ViserServer, max_bytes: int, on_refused: Refused,
+    def __init__(self, server: UploadScope, max_bytes: int, on_refused: Refused,
                  max_in_flight: int = 4) -> None:
         self.server = server
         self.max_bytes = int(max_bytes)
@@ -148,4 +160,4 @@ class UploadLimit:
             log.exception("naseview: upload refusal handler failed")
 
 
-__all__ = ["UploadLimit"]
+__all__ = ["UploadLimit", "UploadScope"]

@@ -253,7 +253,9 @@ def test_new_patient_page_refuses_a_taken_id_and_oversized_photos(
                 browser.close()
         assert app.case_id == read_case(existing).id
         assert {p: p.read_bytes() for p in existing.rglob("*") if p.is_file()} == before
-        assert sorted(p.name for p in work.iterdir()) == ["P001", "in-progress"]
+        # no folder for the refused id (index.sqlite: the patient list's cache)
+        assert sorted(p.name for p in work.iterdir()) == ["P001", "in-progress",
+                                                           "index.sqlite"]
     finally:
         app.close()
         server.stop()

@@ -1,0 +1,169 @@
+"""The patient's own face for the app: the texture baked once per reconstruction, shared by
+every tab.
+
+:func:`face_look` returns the :class:`FaceLook` of the app's current reconstruction: the
+:class:`~naseview.texture.bake.FaceTexture` baked from the case's photos with the stage-1
+cameras (:func:`naseview.texture.bake.bake_texture`; None without photos, e.g. a session
+whose case folder is gone) and the :class:`~naseview.app.face_glb.FaceGlb` parts every
+tab's scene sends. It is computed once per (baseline, moving region) and cached on the app,
+so the first caller pays for the bake — call :func:`prepare_face_look` on the job thread
+where a reconstruction is installed, before the tabs' scenes are built — and every tab
+that connects later reuses it.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+import weakref
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from naseview.app.face_glb import FaceGlb
+from naseview.camera import Camera
+from naseview.case import Case
+from naseview.editing.baseline import Baseline
+from naseview.editing.controller import EditController
+from naseview.errors import NaseviewError
+from naseview.texture.bake import BakeParams, FaceTexture, bake_texture
+
+log = logging.getLogger(__name__)
+
+TEXTURE_SIZE = 1024
+"""Texels per side of the app's face texture."""
+
+
+class LookSource(Protocol):
+    """What :func:`face_look` reads of the app (:class:`naseview.app.serve.NaseviewApp`)."""
+
+    controller: EditController | None
+    case: Case | None
+    cameras: dict[str, Camera]
+    moving: np.ndarray
+
+
+@dataclass(frozen=True)
+class FaceLook:
+    """How one reconstruction is shown.
+
+    Attributes:
+        baseline: the reconstruction it was made for.
+        texture: the baked texture, None without photos.
+        parts: the rest / nose GLBs of the face.
+        photos: view -> (H, W, 3) uint8 BGR photo of the case (empty without photos).
+        bake_s: seconds the bake took (0 without photos).
+    """
+
+    baseline: Baseline
+    texture: FaceTexture | None
+    parts: FaceGlb
+    photos: Mapping[str, np.ndarray]
+    bake_s: float
+
+
+def case_photos(case: Case | None, cameras: Mapping[str, Camera]) -> dict[str, np.ndarray]:
+    """view -> BGR photo of each reconstructed view the case can load (those it cannot
+    are left out and logged)."""
+    out: dict[str, np.ndarray] = {}
+    if case is None:
+        return out
+    for v in cameras:
+        try:
+            out[v] = case.load_image(v)
+        except NaseviewError as e:
+            log.warning("naseview: photo %s not shown on the face: %s", v, e)
+    return out
+
+
+def make_look(baseline: Baseline, region: np.ndarray, cameras: Mapping[str, Camera],
+              photos: Mapping[str, np.ndarray], size: int = TEXTURE_SIZE) -> FaceLook:
+    """Bake the texture of ``baseline`` (when photos with cameras exist) and build its
+    GLB parts for the moving ``region``. A photo the bake refuses (wrong size) leaves the
+    face untextured and is logged, never fatal."""
+    tex: FaceTexture | None = None
+    t0 = time.perf_counter()
+    usable = {v: p for v, p in photos.items() if v in cameras}
+    if usable:
+        try:
+            tex = bake_texture(baseline.V, baseline.F, cameras, usable, BakeParams(size=size))
+        except NaseviewError as e:
+            log.warning("naseview: face shown untextured: %s", e)
+    took = time.perf_counter() - t0 if tex is not None else 0.0
+    parts = FaceGlb(baseline.V, baseline.F, region, texture=tex)
+    return FaceLook(baseline, tex, parts, dict(usable), took)
+
+
+_CACHE: weakref.WeakKeyDictionary[object, FaceLook] = weakref.WeakKeyDictionary()
+_LOCK = threading.Lock()
+
+
+def face_look(app: LookSource) -> FaceLook | None:
+    """The look of ``app``'s open reconstruction (baked on first use, then cached on the
+    app); None while nothing is open."""
+    ctl = app.controller
+    if ctl is None:
+        return None
+    base = ctl.baseline
+    region = np.asarray(app.moving if len(app.moving) else base.nose_ids, np.int64)
+    with _LOCK:                   # one bake at a time; the other tabs wait and reuse it
+        hit = _CACHE.get(app)
+        if hit is not None and hit.baseline is base \
+                and np.array_equal(hit.parts.region, region):
+            return hit
+        look = make_look(base, region, app.cameras, case_photos(app.case, app.cameras))
+        _CACHE[app] = look
+        return look
+
+
+def set_face_look(app: LookSource, look: FaceLook) -> None:
+    """Use ``look`` for ``app`` (made with :func:`make_look` for its baseline and moving
+    region, e.g. from photos a script rendered); tabs built afterwards show it."""
+    with _LOCK:
+        _CACHE[app] = look
+
+
+def prepare_face_look(app: LookSource) -> None:
+    """Bake the texture of ``app``'s reconstruction now (call on the job thread, after the
+    controller is installed and before the tabs' scenes are rebuilt)."""
+    face_look(app)
+
+
+
+
+def look_export(app: LookSource, kind: str, fmt: str, part: str = "face",
+                state: str = "simulated", case_id: str | None = None) -> tuple[str, bytes]:
+    """(file name, content) of an export that needs the look: ``kind`` ``"textured"``
+    (``fmt`` ``glb``: the texture embedded, metres; ``obj``: a ZIP of OBJ + MTL + PNG, mm)
+    or ``"solid"`` (a watertight solid for printing, ``fmt`` a mesh type); ``part`` face
+    or nose, ``state`` simulated or original.
+
+    Raises:
+        NaseviewError: nothing open, or a textured export without photos.
+    """
+    from naseview.app.export import mesh_file, textured_obj_zip
+
+    ctl = app.controller
+    if ctl is None:
+        raise NaseviewError("nothing to export yet: the reconstruction is not ready")
+    base = ctl.baseline
+    V = ctl.simulation.V if state == "simulated" else base.V
+    ids = base.nose_ids if part == "nose" else None
+    name = str(case_id or getattr(app, "case_id", None) or "case").replace("/", "_")
+    stem = f"{name}-{part}-{state}"
+    if kind == "solid":
+        return f"{stem}-solid.{fmt}", mesh_file(V, base.F, fmt, ids, watertight=True)
+    look = face_look(app)
+    if look is None or look.texture is None:
+        raise NaseviewError("no photo texture: this reconstruction has no photos (open its "
+                            "case folder); use the plain mesh exports")
+    if fmt == "obj":
+        return f"{stem}-textured.zip", textured_obj_zip(V, base.F, look.texture, ids, stem)
+    return f"{stem}-textured.{fmt}", mesh_file(V, base.F, fmt, ids, texture=look.texture)
+
+
+__all__ = ["FaceLook", "LookSource", "TEXTURE_SIZE", "case_photos", "face_look",
+           "look_export", "make_look", "prepare_face_look", "set_face_look"]
