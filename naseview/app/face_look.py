@@ -29,7 +29,7 @@ from naseview.case import Case
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
-from naseview.texture.bake import BakeParams, FaceTexture, bake_texture
+from naseview.texture.bake import BakeParams, FaceTexture, skin_texture
 
 log = logging.getLogger(__name__)
 
@@ -84,14 +84,9 @@ def make_look(baseline: Baseline, region: np.ndarray, cameras: Mapping[str, Came
     """Bake the texture of ``baseline`` (when photos with cameras exist) and build its
     GLB parts for the moving ``region``. A photo the bake refuses (wrong size) leaves the
     face untextured and is logged, never fatal."""
-    tex: FaceTexture | None = None
     t0 = time.perf_counter()
     usable = {v: p for v, p in photos.items() if v in cameras}
-    if usable:
-        try:
-            tex = bake_texture(baseline.V, baseline.F, cameras, usable, BakeParams(size=size))
-        except NaseviewError as e:
-            log.warning("naseview: face shown untextured: %s", e)
+    tex = skin_texture(baseline.V, baseline.F, cameras, usable, BakeParams(size=size))
     took = time.perf_counter() - t0 if tex is not None else 0.0
     parts = FaceGlb(baseline.V, baseline.F, region, texture=tex)
     return FaceLook(baseline, tex, parts, dict(usable), took)

@@ -15,6 +15,7 @@ from typing import Protocol
 from naseview.app.scene import FaceScene
 from naseview.case import Case
 from naseview.editing.controller import EditController
+from naseview.texture.bake import FaceTexture
 
 
 class AppHost(Protocol):
@@ -39,6 +40,11 @@ class AppHost(Protocol):
     @property
     def credit(self) -> str:
         """Attribution line of the face model."""
+
+    @property
+    def texture(self) -> FaceTexture | None:
+        """The patient's skin baked from the photos for the open reconstruction (None
+        without photos)."""
 
     def open(self, path: Path | None) -> None:
         """Open a case directory, reconstruction directory or session file for the

@@ -351,7 +351,7 @@ class PatientMode:
             V_after=sim.V if edited else None,
             measurements_after=dict(sim.measurements) if edited else None,
             photos=photos, notes=case.notes if case is not None else "",
-            credit=str(app.credit or ""))
+            credit=str(app.credit or ""), texture=app.texture)
 
     def write_report(self, deidentified: bool | None = None) -> Path:
         """Write ``<work_dir>/<case id>/report/report[-deidentified].html`` (+ PNGs)."""

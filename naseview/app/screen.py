@@ -56,6 +56,7 @@ from naseview.editing.baseline import Baseline, Simulation
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
+from naseview.texture.bake import FaceTexture
 
 if TYPE_CHECKING:
     from naseview.app.serve import NaseviewApp
@@ -192,6 +193,11 @@ class Screen:
     @property
     def case(self) -> Case | None:
         return self.app.case
+
+    @property
+    def texture(self) -> FaceTexture | None:
+        look = face_look(self.app)
+        return look.texture if look is not None else None
 
     @property
     def case_id(self) -> str:

@@ -6,6 +6,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from naseview.texture.bake import FaceTexture
+
 DISCLAIMER = "A simulation is not a promised outcome."
 """The sentence every report carries (also in the de-identified version)."""
 
@@ -31,6 +33,9 @@ class ReportData:
         notes: free text (left out of the de-identified version).
         credit: face model credit line.
         date: date shown in the header (default today).
+        texture: the patient's own skin baked from the photos for ``V_before``'s mesh
+            (:func:`naseview.texture.bake.bake_texture`), or ``None`` (plain skin colour).
+            Never used in the de-identified version.
     """
 
     case_id: str
@@ -44,3 +49,4 @@ class ReportData:
     notes: str = ""
     credit: str = ""
     date: str = ""
+    texture: FaceTexture | None = None

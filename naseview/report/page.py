@@ -66,14 +66,16 @@ _esc = html.escape
 def _renders(data: ReportData, deidentified: bool, render_size: int
              ) -> tuple[Images, Images | None]:
     """Renders before and (with a simulation) after, sharing the "before" cameras; the
-    "after" images carry the "before" silhouette."""
+    "after" images carry the "before" silhouette; textured with the patient's skin when
+    there is a texture, never in the de-identified version."""
+    skin = None if deidentified else data.texture  # the patient's skin identifies them
     before, masks = render_views(data.V_before, data.F, data.nose_ids, render_size,
-                                 nose_only=deidentified)
+                                 nose_only=deidentified, texture=skin)
     after = None
     if data.V_after is not None:
         after, _ = render_views(data.V_after, data.F, data.nose_ids, render_size,
                                 nose_only=deidentified, framing=data.V_before,
-                                outline_of=masks)
+                                outline_of=masks, texture=skin)
     return before, after
 
 

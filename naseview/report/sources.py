@@ -11,13 +11,14 @@ from pathlib import Path
 import numpy as np
 
 from naseview.case import read_case
-from naseview.editing.baseline import baseline_from_output_dir
+from naseview.editing.baseline import Baseline, baseline_from_output_dir
 from naseview.editing.session import load_session
 from naseview.errors import NaseviewError
 from naseview.fileio import current_set_file
 from naseview.reconstruction import RECONSTRUCTION_FILE, Reconstruction, output_case_dir
 from naseview.report.data import ReportData
 from naseview.report.page import write_report
+from naseview.texture.bake import FaceTexture, skin_texture
 
 CaseDir = str | os.PathLike[str] | None
 """A case directory (SPEC §3) to take the photos from, or None (no photos)."""
@@ -67,7 +68,7 @@ def report_data_from_session(path: str | os.PathLike[str], case_dir: CaseDir = N
         nose_ids=b.nose_ids, measurements_before=dict(b.measurements),
         V_after=sim.V if edited and sim is not None else None,
         measurements_after=dict(sim.measurements) if edited and sim is not None else None,
-        photos=pics, credit=str(s.app.get("credit", "")))
+        photos=pics, credit=str(s.app.get("credit", "")), texture=_skin(b, pics))
 
 
 def report_data_from_output(out_dir: str | os.PathLike[str], case_dir: CaseDir = None,
@@ -87,7 +88,14 @@ def report_data_from_output(out_dir: str | os.PathLike[str], case_dir: CaseDir =
                                   else _stored_photos(stored, out / RECONSTRUCTION_FILE))
     return ReportData(case_id=out.name, V_before=b.V, F=b.F, nose_ids=b.nose_ids,
                       measurements_before=dict(b.measurements), photos=pics,
-                      credit=_credit_of(rec))
+                      credit=_credit_of(rec), texture=_skin(b, pics))
+
+
+def _skin(baseline: Baseline, photos: dict[str, np.ndarray]) -> FaceTexture | None:
+    """The patient's skin for the report's renders, baked from the photos with the
+    reconstruction's cameras (None without photos)."""
+    rec = baseline.reconstruction
+    return skin_texture(baseline.V, baseline.F, rec.cameras, photos) if rec else None
 
 
 def _credit_of(rec: Reconstruction | None) -> str:

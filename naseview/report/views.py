@@ -16,7 +16,9 @@ import numpy as np
 
 from naseview.camera import STANDARD_VIEWS, standard_camera
 from naseview.geometry.closing import cap_holes
-from naseview.render import render_mesh
+from naseview.render import rasterize, render_mesh
+from naseview.texture.bake import FaceTexture
+from naseview.texture.views import render_textured
 
 RENDER_VIEWS: dict[str, tuple[str, tuple[float, float, float]]] = {
     v: STANDARD_VIEWS[v] for v in ("front", "right", "three_quarter_right", "base")}
@@ -43,7 +45,8 @@ def _draw_outline(img: np.ndarray, silhouette: np.ndarray) -> np.ndarray:
 
 def render_views(V: np.ndarray, F: np.ndarray, nose_ids: np.ndarray, size: int = 480,
                  nose_only: bool = False, framing: np.ndarray | None = None,
-                 outline_of: Mapping[str, np.ndarray] | None = None
+                 outline_of: Mapping[str, np.ndarray] | None = None,
+                 texture: FaceTexture | None = None
                  ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
     """Shaded renders of a face (or nose-only) mesh from every :data:`RENDER_VIEWS` view.
 
@@ -58,6 +61,8 @@ def render_views(V: np.ndarray, F: np.ndarray, nose_ids: np.ndarray, size: int =
             default ``V``.
         outline_of: view -> (size, size) bool silhouette to draw as a blue outline
             (the "before" silhouette on the "after" images).
+        texture: the patient's skin for this mesh (the face, not ``nose_only``): the
+            renders show it (:func:`naseview.texture.views.render_textured`).
     Returns:
         view -> (size, size, 3) uint8 BGR, and view -> (size, size) bool silhouette.
     """
@@ -69,17 +74,23 @@ def render_views(V: np.ndarray, F: np.ndarray, nose_ids: np.ndarray, size: int =
         inside = np.zeros(len(V), dtype=bool)
         inside[nose_ids] = True
         F = F[inside[F].all(axis=1)]
-    else:
+    elif texture is None:
         V, F = cap_holes(V, F)
     colors = np.tile(np.asarray(NOSE_ONLY_BGR if nose_only else SKIN_BGR, np.uint8),
                      (len(V), 1))
     images, masks = {}, {}
     for view in RENDER_VIEWS:
         cam = standard_camera(frame_V, view, size, nose_ids, 1.5 if nose_only else 1.9)
-        res = render_mesh(V, F, cam, vertex_colors=colors, supersample=2,
-                          background=(255, 255, 255))
-        img = res.image.copy()
-        masks[view] = np.isfinite(res.depth)
+        if texture is not None and not nose_only:
+            img = cv2.cvtColor(render_textured(V, F, cam, texture=texture,
+                                               background=(255, 255, 255)),
+                               cv2.COLOR_RGB2BGR)
+            masks[view] = np.isfinite(rasterize(*cap_holes(V, F), cam).depth)
+        else:
+            res = render_mesh(V, F, cam, vertex_colors=colors, supersample=2,
+                              background=(255, 255, 255))
+            img = res.image.copy()
+            masks[view] = np.isfinite(res.depth)
         if outline_of is not None and view in outline_of:
             img = _draw_outline(img, outline_of[view])
         images[view] = img

@@ -37,6 +37,7 @@ Example
 from __future__ import annotations
 
 import hashlib
+import logging
 import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -53,7 +54,9 @@ from naseview.render import rasterize, rasterize_screen, visible_points
 from naseview.stage2_curves.mask import estimate_background, foreground_mask
 from naseview.texture.uv import face_uv, uv_to_pixels
 
-__all__ = ["BakeParams", "FaceTexture", "TexelPlan", "bake_texture", "push_pull",
+log = logging.getLogger(__name__)
+
+__all__ = ["BakeParams", "FaceTexture", "TexelPlan", "bake_texture", "skin_texture", "push_pull",
            "multiband_blend", "sample_image", "texel_plan", "view_weights"]
 
 REFERENCE_VIEW = "front"
@@ -462,3 +465,19 @@ def bake_texture(V: ArrayLike, F: ArrayLike, cameras: Mapping[str, Camera],
     total = max(float(wsum.sum()), 1e-12)
     return FaceTexture(plan.uv.copy(), image, coverage, vcol.astype(np.uint8), gains,
                        {v: float(weights[v].sum()) / total for v in views})
+
+
+def skin_texture(V: ArrayLike, F: ArrayLike, cameras: Mapping[str, Camera],
+                 photos: Mapping[str, np.ndarray], params: BakeParams | None = None
+                 ) -> FaceTexture | None:
+    """:func:`bake_texture` of the photos that have a camera, or ``None`` when there is
+    none or the bake refuses a photo (logged, never fatal): the face is then shown in
+    plain skin colour. The one rule the app, the report and the exports follow."""
+    usable = {v: p for v, p in photos.items() if v in cameras}
+    if not usable:
+        return None
+    try:
+        return bake_texture(V, F, cameras, usable, params)
+    except NaseviewError as e:
+        log.warning("naseview: face shown untextured: %s", e)
+        return None

@@ -24,6 +24,7 @@ from naseview.report import (
     report_html,
     write_report,
 )
+from naseview.texture.bake import FaceTexture
 
 NOTE = "follow-up in March; PRIVATE-NOTE-7731"
 
@@ -176,3 +177,30 @@ def test_report_command_from_a_session_file(data, tmp_path: Path):
     with pytest.raises(NaseviewError, match="session file"):
         report_command(argparse.Namespace(path=tmp_path, output=None, deidentified=False,
                                           case=None))
+
+
+def _green_skin(V: np.ndarray) -> FaceTexture:
+    """A texture of one unmistakable colour (pure green) over the whole chart."""
+    uv = (V[:, :2] - V[:, :2].min(axis=0)) / np.ptp(V[:, :2], axis=0)
+    image = np.zeros((32, 32, 3), np.uint8)
+    image[:, :, 1] = 255
+    return FaceTexture(uv=uv, image=image, coverage=np.ones((32, 32), bool),
+                       vertex_colors=np.tile(np.array([0, 255, 0], np.uint8), (len(V), 1)))
+
+
+def _green_share(img_bgr: np.ndarray) -> float:
+    b, g, r = (img_bgr[:, :, i].astype(int) for i in range(3))
+    return float(np.mean((g > 120) & (g > r + 60) & (g > b + 60)))
+
+
+def test_renders_show_the_patient_skin_but_never_in_the_deidentified_report(data):
+    """The report's face is the patient's own (the texture baked from the photos); the
+    de-identified version keeps plain nose renders, since skin identifies a person."""
+    skinned = ReportData(**{**vars(data), "texture": _green_skin(data.V_before)})
+    _, plain = report_html(data, render_size=120)
+    _, textured = report_html(skinned, render_size=120)
+    _, anon = report_html(skinned, deidentified=True, render_size=120)
+    assert _green_share(plain["views"]) == 0.0
+    assert _green_share(textured["views"]) > 0.2               # before and after, skinned
+    assert _green_share(textured["views"][120:]) > 0.1         # the simulated face too
+    assert _green_share(anon["views"]) == 0.0
