@@ -59,7 +59,14 @@ from naseview.app.markdown_text import markdown_text
 from naseview.app.patients_panel import PatientList
 from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
 from naseview.app.photo_plane import PhotoPlane, disc_mesh, ring_mesh
-from naseview.app.scope import ClientAsServer, NoticeColor, Scope, clients_of, notify
+from naseview.app.scope import (
+    ClientAsServer,
+    NoticeColor,
+    Scope,
+    clients_of,
+    notify,
+    run_action,
+)
 from naseview.app.upload_limit import UploadLimit, UploadScope
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
@@ -288,13 +295,7 @@ class AnnotatePage:
             fn = self._queue.get()
             if fn is None:
                 return
-            try:
-                fn()
-            except NaseviewError as e:
-                self.show_error(str(e))
-            except Exception as e:
-                log.exception("naseview: annotation step failed")
-                self.show_error(f"{type(e).__name__}: {e}")
+            run_action(fn, self.show_error, "annotation step")
 
     # lifecycle
     def start(self, case_id: str | None = None) -> AnnotationSession:

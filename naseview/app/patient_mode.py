@@ -32,7 +32,7 @@ import viser
 from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
 from naseview.app.scene import FaceScene, blend
-from naseview.app.scope import NoticeColor, Scope, clients_of, notify
+from naseview.app.scope import NoticeColor, Scope, clients_of, notify, run_action
 from naseview.camera import DISTANCE_MM
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
@@ -128,13 +128,7 @@ class PatientMode:
 
     # helpers
     def _guard(self, fn: Callable[[], object]) -> None:
-        try:
-            fn()
-        except NaseviewError as e:
-            self._notify(str(e), "red")
-        except Exception as e:
-            log.exception("naseview: patient mode action failed")
-            self._notify(f"{type(e).__name__}: {e}", "red")
+        run_action(fn, lambda message: self._notify(message, "red"), "patient mode action")
 
     def _notify(self, body: str, color: NoticeColor = "blue",
                 client: viser.ClientHandle | None = None) -> None:

@@ -11,9 +11,12 @@ place that tells the two apart.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from typing import Literal
 
 import viser
+
+from naseview.errors import NaseviewError
 
 log = logging.getLogger(__name__)
 
@@ -29,6 +32,20 @@ def clients_of(scope: Scope) -> list[viser.ClientHandle]:
     if isinstance(scope, viser.ClientHandle):
         return [scope]
     return list(scope.get_clients().values())
+
+
+def run_action(fn: Callable[[], object], show: Callable[[str], None],
+               what: str = "action") -> None:
+    """Run a page action (a button, a queued step): a :class:`NaseviewError` is shown with
+    ``show`` as its one line; anything else is logged with its traceback and shown as one
+    line too, so a failed action never stops the page or the server."""
+    try:
+        fn()
+    except NaseviewError as e:
+        show(str(e))
+    except Exception as e:
+        log.exception("naseview: %s failed", what)
+        show(f"{type(e).__name__}: {e}")
 
 
 def notify(scope: Scope, title: str, body: str, color: NoticeColor = "blue",

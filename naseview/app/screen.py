@@ -42,7 +42,7 @@ from naseview.app.panels import (
 from naseview.app.patient_mode import PatientMode
 from naseview.app.photo_sim import PhotoSimulation, SimInputs, sim_inputs
 from naseview.app.scene import NOSE, SKIN, FaceScene, nice_limit, signed_displacement
-from naseview.app.scope import NoticeColor, notify
+from naseview.app.scope import NoticeColor, notify, run_action
 from naseview.app.viewer import (
     DEFAULT_VIEW,
     SCALE_BAR_MM,
@@ -174,13 +174,7 @@ class Screen:
 
     def _run(self, fn: Callable[[], object]) -> None:
         """Run a button action; errors become a red notification in this tab."""
-        try:
-            fn()
-        except NaseviewError as e:
-            self.notify(str(e), "red")
-        except Exception as e:
-            log.exception("naseview: action failed")
-            self.notify(f"{type(e).__name__}: {e}", "red")
+        run_action(fn, lambda message: self.notify(message, "red"))
 
     def notify(self, body: str, color: NoticeColor = "blue") -> None:
         notify(self.client, "naseview", body, color, seconds=8.0)
