@@ -6,11 +6,13 @@ import os
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 import viser
-from helpers import ict_baseline
+from helpers import GaussianSolver, ict_baseline
 
+from naseview.app.guard import guarded_viser_server
 from naseview.app.serve import NaseviewApp, demo_case_dir, start_app
 from naseview.editing.baseline import Baseline
 from naseview.editing.solver import NoseEditSolver
@@ -64,3 +66,26 @@ def served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
     yield server, app
     app.close()
     server.stop()
+
+
+@pytest.fixture()
+def ict_app(baseline: Baseline, tmp_path: Path
+            ) -> Iterator[tuple[viser.ViserServer, NaseviewApp, list[Any]]]:
+    """``(server, app, tabs)``: an app on the ICT mean face with the quick test solver
+    (``helpers.GaussianSolver``) and its own work folder; headless tabs a test appends to
+    ``tabs`` are closed with it."""
+    def factory(b: Baseline, params: object, iters: int) -> tuple[Any, list[str], Any]:
+        return GaussianSolver(b), ["prn", "al_l", "al_r", "c"], b.nose_ids
+
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
+    app = NaseviewApp(server, solver_factory=factory, work_dir=tmp_path / "work")
+    tabs: list[Any] = []
+    try:
+        app.open_baseline(baseline, case_id="ict-mean")
+        assert app.wait_ready(60)
+        yield server, app, tabs
+    finally:
+        for t in tabs:
+            t.close()
+        app.close()
+        server.stop()

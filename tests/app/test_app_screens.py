@@ -13,33 +13,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from helpers import GaussianSolver, drag, naseview_serve, open_tab, wait_for
+from helpers import drag, naseview_serve, open_tab, wait_for
 
-from naseview.app.guard import guarded_viser_server
 from naseview.app.gui_value import set_value
 from naseview.app.screen import PATIENT_SCREEN_PATH
-from naseview.app.serve import NaseviewApp, start_app
-from naseview.editing.baseline import Baseline
+from naseview.app.serve import start_app
 
 
 @pytest.fixture()
-def served(baseline: Baseline, tmp_path: Path):
-    """An app on the ICT mean face with the quick test solver, and a cleanup list."""
-    def factory(b, params, iters):
-        return GaussianSolver(b), ["prn", "al_l", "al_r", "c"], b.nose_ids
-
-    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
-    app = NaseviewApp(server, solver_factory=factory, work_dir=tmp_path / "work")
-    tabs: list = []
-    try:
-        app.open_baseline(baseline, case_id="ict-mean")
-        assert app.wait_ready(60)
-        yield server, app, tabs
-    finally:
-        for t in tabs:
-            t.close()
-        app.close()
-        server.stop()
+def served(ict_app):
+    """(server, app, tabs): see ``ict_app`` in conftest."""
+    return ict_app
 
 
 def nose(screen) -> np.ndarray:

@@ -11,13 +11,11 @@ import struct
 
 import numpy as np
 import pytest
-from helpers import GaussianSolver, drag, open_tab, wait_for
+from helpers import drag, open_tab, wait_for
 
 from naseview.app.face_glb import FaceGlb
 from naseview.app.face_look import make_look, set_face_look
-from naseview.app.guard import guarded_viser_server
 from naseview.app.gui_value import set_value
-from naseview.app.serve import NaseviewApp
 from naseview.app.viewer import camera_of_view
 from naseview.camera import standard_camera
 from naseview.editing.baseline import Baseline
@@ -39,22 +37,9 @@ def skin_photos(b: Baseline, size: int = 256) -> tuple[dict, dict]:
 
 
 @pytest.fixture()
-def served(baseline: Baseline, tmp_path):
-    def factory(b, params, iters):
-        return GaussianSolver(b), ["prn", "al_l", "al_r", "c"], b.nose_ids
-
-    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
-    app = NaseviewApp(server, solver_factory=factory, work_dir=tmp_path / "work")
-    tabs: list = []
-    try:
-        app.open_baseline(baseline, case_id="ict-mean")
-        assert app.wait_ready(60)
-        yield server, app, tabs
-    finally:
-        for t in tabs:
-            t.close()
-        app.close()
-        server.stop()
+def served(ict_app):
+    """(server, app, tabs): see ``ict_app`` in conftest."""
+    return ict_app
 
 
 def glb_parts(data: bytes) -> tuple[dict, bytes]:
