@@ -42,6 +42,11 @@ class AppHost(Protocol):
         """Attribution line of the face model."""
 
     @property
+    def patient_id(self) -> str | None:
+        """The open patient's folder name in the work folder (None: not kept, e.g. the
+        demo or a session file opened directly)."""
+
+    @property
     def texture(self) -> FaceTexture | None:
         """The patient's skin baked from the photos for the open reconstruction (None
         without photos)."""

@@ -348,14 +348,21 @@ class PatientMode:
             credit=str(app.credit or ""), texture=app.texture)
 
     def write_report(self, deidentified: bool | None = None) -> Path:
-        """Write ``<work_dir>/<case id>/report/report[-deidentified].html`` (+ PNGs)."""
+        """Write ``WORK/<patient>/report/report[-deidentified].html`` (+ PNGs): the open
+        patient's folder (two cases with the same case id are two patients), or, for a
+        case that is not kept (the demo), the folder named by its case id.
+
+        Raises:
+            NaseviewError: a symbolic link on the way (a report, photos included, is never
+                written out of the work folder through a link).
+        """
         data = self.report_data()
         deid = self.deid.value if deidentified is None else deidentified
         name = "report-deidentified.html" if deid else "report.html"
-        report_dir = PatientFolders(self.work_dir).report_dir(safe_case_id(data.case_id)
-                                                              or "case")
-        return write_report(data, report_dir / name,
-                            deidentified=bool(deid))
+        folders = PatientFolders(self.work_dir)
+        pid = self.app.patient_id or safe_case_id(data.case_id) or "case"
+        report_dir = folders.inside(pid, folders.report_dir(pid))
+        return write_report(data, report_dir / name, deidentified=bool(deid))
 
     def download_report(self, client: viser.ClientHandle | None = None) -> None:
         """Write the report in the background and send the HTML to the browser."""

@@ -189,6 +189,10 @@ class Screen:
         return self.app.case
 
     @property
+    def patient_id(self) -> str | None:
+        return self.app.work.patient_id
+
+    @property
     def texture(self) -> FaceTexture | None:
         look = face_look(self.app)
         return look.texture if look is not None else None

@@ -24,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
+import os
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -91,6 +92,9 @@ class Autosave:
         self.on_error: list[Callable[[str], None]] = []
         if on_disk:
             self._last_key = self._state(self._record)[2]
+        self._stamp = _file_stamp(self.path)
+        """The file as this window last wrote or read it: another window's (or another
+        server's) write since then is refused, never silently overwritten."""
         controller.on_history.append(self._changed)
         self._worker = threading.Thread(target=self._run, name="naseview-autosave",
                                         daemon=True)
@@ -186,7 +190,13 @@ class Autosave:
                                            "record": dataclasses.replace(
                                                record, modified=now_iso()).to_json()}
                     out.update(obj)
+                    if _file_stamp(self.path) != self._stamp:
+                        raise NaseviewError(
+                            f"{self.path}: changed by another naseview window since this "
+                            "one opened it; not overwritten (the other edits are kept). "
+                            "Reopen the simulation, or duplicate it to keep both")
                     atomic_write_bytes(self.path, session_bytes(out))
+                    self._stamp = _file_stamp(self.path)
                     self.saves += 1
                     self._last_key = key
                     self._notify_saved()
@@ -252,3 +262,12 @@ class Autosave:
 
 
 __all__ = ["DEFAULT_DELAY", "Autosave"]
+
+
+def _file_stamp(path: Path) -> tuple[int, int, int] | None:
+    """(inode, size, modification time in ns) of ``path``, or None when it is absent."""
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        return None
+    return (st.st_ino, st.st_size, st.st_mtime_ns)

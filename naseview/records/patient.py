@@ -4,8 +4,11 @@ A patient's case is ``WORK/<id>/case`` (written by the new-patient page) or, for
 opened from elsewhere (``naseview serve SOMECASE``), the case folder that
 ``WORK/<id>/patient.json`` links to: its path relative to the patient folder and the
 SHA-256 of its ``case.json``. The case is never copied and nothing is written into it; a
-link is followed only to a ``case.json`` with the recorded hash, so a hand-edited
-``patient.json`` cannot pull in another patient's photos. The reconstruction is the
+link is followed only to a ``case.json`` with the recorded hash, so a case that changed
+(or a link edited by mistake) is never opened as this patient. The hash is not a secret:
+someone who can edit ``patient.json`` can point it at any case folder whose
+``case.json`` they can read, as they could open that folder with ``naseview serve``
+anyway. The reconstruction is the
 pipeline output set in ``WORK/<id>/reconstruction`` (:func:`save_reconstruction`, all or
 nothing), whose ``reconstruction.json`` links the case the same way (``case_dir`` +
 ``case_sha256``).

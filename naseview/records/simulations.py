@@ -48,8 +48,9 @@ from naseview.fileio import atomic_write_bytes, one_line, parse_json
 from naseview.intake.patients import PatientFolders, is_simulation_slug
 from naseview.records.patient import iso_of_ns, now_iso
 
-MAX_SIMULATION_BYTES = 256 * 1024 * 1024
-"""Largest simulation file naseview reads (a session of the ICT face is a few MB)."""
+MAX_SIMULATION_BYTES = 64 * 1024 * 1024
+"""Largest simulation file naseview reads (a session of the ICT face is about 1 MB; a
+junk file in the folder costs no more than this at each rescan of the patient list)."""
 
 DEFAULT_NAME = "Simulation"
 

@@ -156,3 +156,31 @@ def test_a_bad_name_is_one_line(patient: Patient):
             Autosave(patient.records.folders, patient.pid, "../x", ctl, name="x")
     finally:
         ctl.close()
+
+
+def test_another_window_saving_the_same_simulation_is_never_overwritten(patient: Patient):
+    """Two servers (two PatientRecords) editing one simulation: the second writer is told
+    in one line and the first one's edit stays on disk (no silent last-writer-wins)."""
+    ctl_a = patient.controller()
+    auto_a = patient.records.start_simulation(patient.pid, ctl_a, delay=0.05,
+                                              reconstruction_sha256=patient.saved.sha256)
+    other = PatientRecords(patient.records.folders.root)
+    session = other.load_simulation(patient.pid, auto_a.slug)
+    ctl_b = EditController.from_session(session, None)
+    auto_b = other.resume_simulation(patient.pid, auto_a.slug, ctl_b, session, delay=0.05)
+    try:
+        drag(ctl_a, "prn", np.array([0.0, 0.0, 2.0]))
+        assert auto_a.flush() and auto_a.error is None
+        a_prn = ctl_a.landmarks["prn"].copy()
+        drag(ctl_b, "prn", np.array([0.0, 2.0, 0.0]))      # B's own edit of the tip
+        auto_b.flush()
+        assert auto_b.error is not None and "another naseview window" in auto_b.error
+        assert "\n" not in auto_b.error
+        saved = read_simulation(patient.records.folders, patient.pid, auto_a.slug)
+        np.testing.assert_allclose(saved.landmarks["prn"], a_prn)
+    finally:
+        auto_b.close()
+        other.close()
+        ctl_b.close()
+        auto_a.close()
+        ctl_a.close()
