@@ -52,7 +52,9 @@ def naseview_serve(args: list[str], env: Mapping[str, str] | None = None
                    ) -> Iterator[list[str]]:
     """``python -m naseview serve ARGS`` in a subprocess (from the repository, environment
     ``os.environ`` + ``env``), read until it says it is ready ("press Ctrl-C"); yields its
-    output lines so far, then stops it with Ctrl-C (SIGINT) and asserts a clean exit 0."""
+    output lines so far (the server still running), then stops it with Ctrl-C (SIGINT),
+    reading the rest of its output so it never blocks on a full pipe, and asserts a clean
+    exit 0."""
     proc = subprocess.Popen([sys.executable, "-m", "naseview", "serve", *args], cwd=REPO,
                             env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})},
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -63,11 +65,12 @@ def naseview_serve(args: list[str], env: Mapping[str, str] | None = None
             lines.append(line)
             if "press Ctrl-C" in line:
                 break
+        assert proc.poll() is None, "".join(lines)
         yield lines
     finally:
         proc.send_signal(signal.SIGINT)
         try:
-            proc.wait(30)
+            lines.append(proc.communicate(timeout=90)[0] or "")
         finally:
             if proc.poll() is None:
                 proc.kill()

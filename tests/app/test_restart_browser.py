@@ -7,19 +7,15 @@ list names the patient."""
 from __future__ import annotations
 
 import json
-import os
 import shutil
-import signal
 import socket
-import subprocess
-import sys
 import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
-from helpers import CHROMIUM, CHROMIUM_FLAGS, browser_or_skip, wait_for
+from helpers import CHROMIUM, CHROMIUM_FLAGS, browser_or_skip, naseview_serve, wait_for
 
 from naseview.app.screen import nose_view
 from naseview.app.serve import demo_case_dir
@@ -27,7 +23,6 @@ from naseview.editing.baseline import baseline_from_output_dir
 
 pytestmark = pytest.mark.browser
 
-REPO = Path(__file__).resolve().parents[2]
 VIEWPORT = {"width": 900, "height": 600}
 
 
@@ -35,34 +30,6 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return int(s.getsockname()[1])
-
-
-class Serve:
-    """``naseview serve CASE --port P --no-browser`` until :meth:`stop` (Ctrl-C)."""
-
-    def __init__(self, case: Path, port: int, work: Path) -> None:
-        env = {**os.environ, "PYTHONUNBUFFERED": "1", "NASEVIEW_WORK_DIR": str(work)}
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "naseview", "serve", str(case), "--port", str(port),
-             "--model", "generic", "--no-browser"], cwd=REPO, env=env,
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        self.lines: list[str] = []
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append(line)
-            if "press Ctrl-C" in line:
-                break
-        assert self.proc.poll() is None, "".join(self.lines)
-
-    def stop(self) -> None:
-        self.proc.send_signal(signal.SIGINT)
-        try:
-            out, _ = self.proc.communicate(timeout=90)
-            self.lines.append(out or "")
-        finally:
-            if self.proc.poll() is None:
-                self.proc.kill()
-        assert self.proc.returncode == 0, "".join(self.lines)
 
 
 def to_pixel(X: np.ndarray, eye: np.ndarray, target: np.ndarray, fov: float,
@@ -118,8 +85,9 @@ def test_an_edit_survives_a_server_restart_with_its_undo(tmp_path: Path):
     def saved_edit() -> dict:
         return json.loads(sim.read_text())["edit"]
 
-    server = Serve(case, port, work)
-    try:
+    serve = [str(case), "--port", str(port), "--model", "generic", "--no-browser"]
+    env = {"NASEVIEW_WORK_DIR": str(work)}
+    with naseview_serve(serve, env):                   # stopped with Ctrl-C at the end
         wait_for(sim.is_file, 120, "the reconstruction kept and its simulation started")
         base = baseline_from_output_dir(work / pid / "reconstruction")
         target, eye, fov = nose_view(base)
@@ -143,13 +111,10 @@ def test_an_edit_survives_a_server_restart_with_its_undo(tmp_path: Path):
                 assert np.abs(edited - before).mean() > 0.05, "the drag changed nothing"
             finally:
                 browser.close()
-    finally:
-        server.stop()                                  # Ctrl-C
     kept = saved_edit()
     assert kept != first
 
-    server = Serve(case, port, work)                   # the same command again
-    try:
+    with naseview_serve(serve, env):                   # the same command again
         with sync_api.sync_playwright() as p:
             browser = p.chromium.launch(executable_path=CHROMIUM, headless=True,
                                         args=CHROMIUM_FLAGS)
@@ -177,8 +142,6 @@ def test_an_edit_survives_a_server_restart_with_its_undo(tmp_path: Path):
                     np.abs(nose(undone) - nose(edited)).mean()
             finally:
                 browser.close()
-    finally:
-        server.stop()
     undone_edit = saved_edit()
     assert undone_edit["history_index"] == kept["history_index"] - 1
     assert undone_edit["landmarks"] == first["landmarks"]     # back to the reconstruction
