@@ -124,17 +124,26 @@ def build_parser() -> argparse.ArgumentParser:
                    help="do not open the page in the browser (just print its address)")
     s.set_defaults(func=serve_command)
 
-    s = sub.add_parser("report", help="consultation report (self-contained HTML + PNGs) "
-                                      "from a session file or a reconstruction directory")
+    s = sub.add_parser("report", help="consultation report (self-contained HTML + PNGs, "
+                                      "optionally A4 PDF) from a session file or a "
+                                      "reconstruction directory")
     s.add_argument("path", type=Path,
                    help="session .json saved from the app (before + after) or a "
                         "`naseview reconstruct` output directory (before only)")
     s.add_argument("-o", "--output", type=Path, default=None,
                    help="HTML file to write (default: report.html beside PATH)")
     s.add_argument("--deidentified", action="store_true",
-                   help="leave out the photos and notes; render the nose region only")
+                   help="leave out the photos, notes, names, ids, dates, surgeon and "
+                        "clinic; clean grey renders of the nose only")
     s.add_argument("--case", type=Path, default=None,
                    help="case directory with the photos (default: the one PATH names)")
+    s.add_argument("--surgeon", default="", help="surgeon's name shown in the report")
+    s.add_argument("--clinic", default="", help="clinic name shown in the report")
+    s.add_argument("--patient-name", default="",
+                   help="patient's name: the title of the report (default: the case id)")
+    s.add_argument("--pdf", action="store_true",
+                   help="also print the report to an A4 PDF beside the HTML (needs "
+                        "Chromium)")
     s.set_defaults(func=report_command)
 
     s = sub.add_parser("model", help="install or inspect face models")

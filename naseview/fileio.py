@@ -212,6 +212,9 @@ def parse_json(data: bytes, where: str | os.PathLike[str]) -> dict[str, Any]:
     except ValueError as e:
         raise NaseviewError(f"{where}: {e.args[0]} is not a JSON number; write a finite "
                             "number") from None
+    except RecursionError:
+        raise NaseviewError(f"{where}: arrays or objects nested too deeply; this is not a "
+                            "naseview file") from None
     if not isinstance(obj, dict):
         raise NaseviewError(f"{where}: expected a JSON object at the top level")
     return obj

@@ -47,6 +47,7 @@ from naseview.reconstruction import (
     CASE_SHA256_KEY,
     FILES_KEY,
     RECONSTRUCTION_FILE,
+    SCALE_KEY,
     Reconstruction,
 )
 from naseview.stage1_landmarks import SfmParams, SfmResult, bundle_adjust
@@ -314,6 +315,7 @@ def _take_run_info(result: PipelineResult, case: Case) -> None:
     result.case_root = Path(case.root)
     rec.extra["warnings"] = list(result.warnings)
     rec.extra["stage_seconds"] = {k: round(v, 4) for k, v in result.stage_seconds.items()}
+    rec.extra[SCALE_KEY] = {f"{a}-{b}": float(d) for (a, b), d in case.scale_mm.items()}
 
 
 def stage1_extra(sfm: SfmResult) -> dict[str, Any]:

@@ -135,6 +135,23 @@ class Reconstruction:
         )
 
 
+SCALE_KEY = "scale_mm"
+"""``reconstruction.json`` key (beyond SPEC §5) echoing the case's calliper distances
+(``{"al_l-al_r": 34.5}``): the result was scaled to them, so the measurements equal to them
+are inputs, not findings (:func:`naseview.measurements.calliper_inputs`)."""
+
+
+def calliper_distances(rec: Reconstruction) -> dict[str, float]:
+    """The calliper distances ``"<id>-<id>" -> mm`` the reconstruction was scaled to, as
+    echoed in :data:`SCALE_KEY` (``{}`` for a result written before it, or a malformed
+    value: the key is informative, never trusted for anything but labelling)."""
+    value = rec.extra.get(SCALE_KEY)
+    if not isinstance(value, dict):
+        return {}
+    return {str(k): float(v) for k, v in value.items()
+            if isinstance(k, str) and len(k) <= 40 and _finite_number(v)}
+
+
 def _finite_number(v: object) -> bool:
     """True for an int or float (not a bool) that is finite."""
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)

@@ -68,6 +68,19 @@ def served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
     server.stop()
 
 
+@pytest.fixture(scope="module")
+def ict_served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
+    """``(server, app)``: the app on the ICT mean face with its real solver (ARAP), as
+    the browser tests drive it."""
+    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
+    app = NaseviewApp(server)
+    app.open_baseline(ict_baseline(), case_id="ict-mean")
+    assert app.wait_ready(60)
+    yield server, app
+    app.close()
+    server.stop()
+
+
 @pytest.fixture()
 def ict_app(baseline: Baseline, tmp_path: Path
             ) -> Iterator[tuple[viser.ViserServer, NaseviewApp, list[Any]]]:

@@ -143,6 +143,23 @@ def _ict_model() -> FaceModel:
     return load_face_model("ict")
 
 
+@functools.cache
+def demo_output_dir() -> Path:
+    """The bundled demo case reconstructed by ``naseview reconstruct`` (default face
+    model) into a fresh temporary folder, once per test process (removed at exit)."""
+    import atexit
+    import shutil
+    import tempfile
+
+    root = Path(tempfile.mkdtemp(prefix="naseview-demo-"))
+    atexit.register(shutil.rmtree, root, ignore_errors=True)
+    out = root / "out"
+    subprocess.run([sys.executable, "-m", "naseview", "reconstruct",
+                    str(REPO / "assets" / "demo-case"), "-o", str(out)],
+                   check=True, capture_output=True)
+    return out
+
+
 def ict_baseline() -> Baseline:
     """The ICT mean face as a reconstruction in the SPEC frame (origin at g)."""
     return baseline_from_face_model(_ict_model())
@@ -150,7 +167,9 @@ def ict_baseline() -> Baseline:
 
 class GaussianSolver:
     """Test-only deformation: each nose vertex moves by the Gaussian-weighted (sigma
-    6 mm) sum of the landmark displacements; optional delay and failure trigger."""
+    6 mm) sum of the landmark displacements, and forwards (+z) by 0.1 x the sum of the
+    manoeuvre amounts (recorded in ``manoeuvres_seen``); optional delay and failure
+    trigger."""
 
     def __init__(self, baseline: Baseline, delay: float = 0.0,
                  fail_if: str | None = None) -> None:
@@ -158,10 +177,13 @@ class GaussianSolver:
         self.delay = delay
         self.fail_if = fail_if
         self.calls = 0
+        self.manoeuvres_seen: list[dict[str, float]] = []
 
     def __call__(self, landmarks: Mapping[str, np.ndarray],
-                 interactive: bool = False) -> Solved:
+                 interactive: bool = False,
+                 manoeuvres: Mapping[str, float] | None = None) -> Solved:
         self.calls += 1
+        self.manoeuvres_seen.append(dict(manoeuvres or {}))
         if self.delay:
             time.sleep(self.delay)
         b = self.b
@@ -174,6 +196,8 @@ class GaussianSolver:
                     raise RuntimeError("solver exploded (test)")
                 w = np.exp(-np.sum((b.V[b.nose_ids] - b.landmarks[k]) ** 2, 1) / 72.0)
                 P = P + w[:, None] * d
+        if manoeuvres:
+            P = P + np.array([0.0, 0.0, 0.1 * sum(manoeuvres.values())])
         V[b.nose_ids] = P
         curves = {n: c + 0.0 for n, c in b.curves.items()}
         return Solved(V, curves, b.ad_landmarks.copy(),

@@ -13,7 +13,7 @@ import csv
 import io
 import json
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from typing import Any
 
 import numpy as np
@@ -183,11 +183,14 @@ def measurements_csv(original: Mapping[str, float], simulated: Mapping[str, floa
 
 
 def measurements_markdown(original: Mapping[str, float],
-                          simulated: Mapping[str, float], which: str = "all") -> str:
+                          simulated: Mapping[str, float], which: str = "all",
+                          inputs: Collection[str] = ()) -> str:
     """Markdown table ``| measurement | original | simulated | change |`` for the page;
     changes of at least 0.05 (mm, deg) are bold, values outside the typical range
     flagged with a dagger. ``which``: ``"clinical"`` (named measurements), ``"distances"``
-    (the paper's landmark distances ``a-b``) or ``"all"``."""
+    (the paper's landmark distances ``a-b``) or ``"all"``. ``inputs``: names whose value
+    is a calliper distance typed at intake (:func:`naseview.measurements.calliper_inputs`):
+    marked "input", never flagged against a range."""
     lines = ["| measurement | orig. | sim. | change |", "|:--|--:|--:|--:|"]
     rows = export_rows(original, simulated)
     if which == "clinical":
@@ -198,11 +201,14 @@ def measurements_markdown(original: Mapping[str, float],
         u = {"mm": "", "deg": "°"}.get(unit, "")
         rng = _info(n)[2]
 
+        given = n in inputs
+
         def fmt(x: float | None, rng: tuple[float, float] | None = rng, u: str = u,
-                unit: str = unit) -> str:
+                unit: str = unit, given: bool = given) -> str:
             if x is None:
                 return "–"
-            flag = "†" if rng is not None and not (rng[0] <= x <= rng[1]) else ""
+            flag = "†" if rng is not None and not given and not (rng[0] <= x <= rng[1]) \
+                else ""
             return f"{x:.2f}{u}{flag}" if unit == "" else f"{x:.1f}{u}{flag}"
 
         if o is not None and s is not None:
@@ -211,9 +217,14 @@ def measurements_markdown(original: Mapping[str, float],
             ch = f"**{ch}**" if abs(d) >= 0.05 else ch
         else:
             ch = "–"
-        label = n.replace("_", " ") if "-" not in n else n.replace("_", r"\_")
+        info = MEASUREMENT_INFO.get(n)
+        label = (info.title if info is not None and info.title and "-" not in n
+                 else n.replace("_", " ") if "-" not in n else n.replace("_", r"\_"))
+        label += " *(input)*" if given else ""
         lines.append(f"| {label} | {fmt(o)} | {fmt(s)} | {ch} |")
     if which != "distances":
         lines.append("")
-        lines.append("mm unless marked; † outside the typical adult range.")
+        lines.append("mm unless marked; † outside the typical adult range"
+                     + ("; *input*: the calliper distance typed at intake (the 3D result "
+                        "is scaled to it), not a finding." if inputs else "."))
     return "\n".join(lines)

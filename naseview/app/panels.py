@@ -11,7 +11,7 @@ helpers (:func:`annotate_photo`, :func:`residual_markdown`) are pure.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import fields
 from typing import Any, Protocol
 
@@ -25,6 +25,7 @@ from naseview.app.scene import colorbar_image
 from naseview.app.scope import Scope, notify
 from naseview.app.viewer import VIEW_BUTTONS
 from naseview.camera import Camera
+from naseview.editing.manoeuvres import MANOEUVRES
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
 from naseview.stage1_landmarks import SfmParams
@@ -167,6 +168,8 @@ class PanelActions(Protocol):
     def redo(self) -> None: ...
     def reset(self) -> None: ...
     def set_symmetric(self, on: bool) -> None: ...
+    def set_manoeuvre(self, name: str, amount: float) -> None: ...
+    def clear_plan(self) -> None: ...
     def set_visible(self, **kw: bool) -> None: ...
     def set_view(self, **kw: bool) -> None: ...
     def show_standard_view(self, view: str) -> None: ...
@@ -219,6 +222,17 @@ class Panels:
                      "midline landmarks keep their x")
             self.edit_info = gui.add_markdown(
                 "Drag a red sphere to reshape the nose (grey: fixed).")
+        with gui.add_folder("Surgical plan", expand_by_default=True):
+            gui.add_markdown("<small>Type an amount or slide: the nose follows live, "
+                             "manoeuvres combine, Undo takes back one change.</small>")
+            self.manoeuvres: dict[str, viser.GuiSliderHandle[float]] = {
+                name: gui.add_slider(
+                    f"{m.title} ({'°' if m.unit == 'deg' else m.unit})", min=m.low,
+                    max=m.high, step=m.step, initial_value=0.0, hint=m.definition)
+                for name, m in MANOEUVRES.items()}
+            self.clear_plan = gui.add_button("Clear the plan", icon=viser.Icon.ERASER,
+                                             disabled=True,
+                                             hint="Every manoeuvre back to 0 (undoable)")
         with gui.add_folder("Measurements", expand_by_default=True):
             self.measurements = gui.add_markdown("")
             with gui.add_folder("Landmark distances (paper Table 1)",
@@ -315,6 +329,12 @@ class Panels:
         self.redo.on_click(safe(lambda e: app.redo()))
         self.reset.on_click(safe(lambda e: app.reset()))
         self.symmetric.on_update(user(lambda e: app.set_symmetric(self.symmetric.value)))
+        def manoeuvre(name: str) -> Callable[[viser.GuiEvent[Any]], None]:
+            return user(lambda e: app.set_manoeuvre(name, float(e.target.value)))
+
+        for name, h in self.manoeuvres.items():
+            h.on_update(manoeuvre(name))
+        self.clear_plan.on_click(safe(lambda e: app.clear_plan()))
         self.labels.on_update(safe(lambda e: app.set_visible(labels=self.labels.value)))
         self.show_landmarks.on_update(
             safe(lambda e: app.set_visible(landmarks=self.show_landmarks.value)))
@@ -424,10 +444,23 @@ class Panels:
         self.redo.disabled = not can_redo
         self.reset.disabled = not edited
 
+    def set_plan(self, amounts: Mapping[str, float]) -> None:
+        """Show the patient's manoeuvre amounts (an undo, another tab) on the sliders."""
+        for name, h in self.manoeuvres.items():
+            v = float(amounts.get(name, 0.0))
+            if abs(float(h.value) - v) > 1e-9:
+                set_value(h, v)
+        self.clear_plan.disabled = not amounts
+
     def set_measurements(self, original: Mapping[str, float],
-                         simulated: Mapping[str, float]) -> None:
-        self.measurements.content = measurements_markdown(original, simulated, "clinical")
-        self.distances.content = measurements_markdown(original, simulated, "distances")
+                         simulated: Mapping[str, float],
+                         inputs: Collection[str] = ()) -> None:
+        """The tables of the reconstruction's and the simulation's measurements;
+        ``inputs``: names that are calliper distances typed at intake."""
+        self.measurements.content = measurements_markdown(original, simulated, "clinical",
+                                                          inputs)
+        self.distances.content = measurements_markdown(original, simulated, "distances",
+                                                       inputs)
 
     def set_colorbar(self, limit: float | None, max_out: float = 0.0,
                      max_in: float = 0.0, neutral: tuple[int, int, int] | None = None) -> None:

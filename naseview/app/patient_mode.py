@@ -39,6 +39,7 @@ from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
 from naseview.intake.annotation_file import safe_case_id
 from naseview.intake.patients import PatientFolders
+from naseview.reconstruction import calliper_distances
 from naseview.report import DISCLAIMER, ReportData, measurement_rows, write_report
 
 log = logging.getLogger(__name__)
@@ -115,8 +116,16 @@ class PatientMode:
             self.turntable = gui.add_checkbox("Turntable", True)
             self.table = gui.add_html("")
             self.disclaimer = gui.add_html(
-                f"<p style='font-size:15px;color:#a04000;margin:6px 0'><b>{DISCLAIMER}</b>"
+                f"<p style='font-size:15px;color:#333;margin:6px 0'><b>{DISCLAIMER}</b>"
                 "</p>")
+            with gui.add_folder("Report", expand_by_default=False):
+                self.surgeon = gui.add_text("Surgeon", "",
+                                            hint="Printed on the report (not in the "
+                                                 "de-identified version)")
+                self.clinic = gui.add_text("Clinic", "")
+                self.patient_name = gui.add_text(
+                    "Patient name", "", hint="Title of the report; never in the "
+                                            "de-identified version nor saved elsewhere")
             self.deid = gui.add_checkbox("De-identified report (no photos)", False)
             self.report_btn = gui.add_button("Consultation report",
                                              icon=viser.Icon.FILE_TEXT)
@@ -339,13 +348,18 @@ class PatientMode:
                     photos[v] = case.load_image(v)
                 except NaseviewError:
                     pass
+        rec = base.reconstruction
         return ReportData(
             case_id=str(app.case_id), V_before=base.V, F=base.F,
             nose_ids=base.nose_ids, measurements_before=dict(base.measurements),
             V_after=sim.V if edited else None,
             measurements_after=dict(sim.measurements) if edited else None,
-            photos=photos, notes=case.notes if case is not None else "",
-            credit=str(app.credit or ""), texture=app.texture)
+            photos=photos, notes="",
+            credit=str(app.credit or ""), texture=app.texture,
+            manoeuvres=dict(sim.manoeuvres),
+            calliper=calliper_distances(rec) if rec is not None else {},
+            surgeon=_line(self.surgeon.value), clinic=_line(self.clinic.value),
+            patient_name=_line(self.patient_name.value))
 
     def write_report(self, deidentified: bool | None = None) -> Path:
         """Write ``WORK/<patient>/report/report[-deidentified].html`` (+ PNGs): the open
@@ -381,6 +395,12 @@ class PatientMode:
                 self._notify(f"Report failed: {e}", "red", client)
 
         threading.Thread(target=job, name="naseview-report", daemon=True).start()
+
+
+def _line(text: object, limit: int = 120) -> str:
+    """A typed field as one printable line of at most ``limit`` characters."""
+    out = " ".join(str(text or "").split())
+    return "".join(c for c in out if c.isprintable())[:limit]
 
 
 __all__ = ["KEY_MEASUREMENTS", "PatientMode", "blend", "label_text", "turntable_eye"]

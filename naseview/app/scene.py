@@ -7,7 +7,10 @@ own. Everything lives in the SPEC frame (mm, +y up). The face is split in two me
 live update sends only the nose: ``/face/rest`` (static) and ``/face/nose`` (every triangle
 touching the nose region; its outer ring never moves, so there is no crack). The
 landmarks are two batched sphere meshes: the editable ones (inside the nose region) take
-``on_drag``; the others are drawn grey and fixed.
+``on_drag``; the others are drawn grey and fixed. Clicking or dragging a sphere selects it
+and shows the depth arrow (:mod:`naseview.app.depth_handle`) to move it in or out from any
+view. Spheres are drawn where the landmarks sit on the shown surface: the requested
+position plus what the plan's manoeuvres do there (:meth:`Simulation.landmark_offset`).
 
 Pure helpers (:func:`split_region`, :func:`diverging_colors`, :func:`colorbar_image`,
 :func:`camera_pose`) carry the geometry; :class:`FaceScene` owns the viser handles. The
@@ -29,6 +32,7 @@ import numpy as np
 import viser
 from viser import transforms as vtf
 
+from naseview.app.depth_handle import DepthHandle
 from naseview.app.face_glb import FaceGlb
 from naseview.app.ghost import ghost_segments
 from naseview.app.landmark_names import display_name
@@ -352,6 +356,9 @@ class FaceScene:
         self.colormap: viser.GlbHandle | None = None
         self.outline = self._add_outline()
         lms = controller.landmarks
+        self.depth = DepthHandle(self.scene, controller)
+        self._lm_vertex = {k: int(np.argmin(np.linalg.norm(base.V - p, axis=1)))
+                           for k, p in base.landmarks.items() if k in self.editable}
         self.spheres, self.fixed_spheres = self._add_spheres(lms)
         self.labels = {
             i: self.scene.add_label(f"/labels/{i}", display_name(i),
@@ -420,6 +427,7 @@ class FaceScene:
                                         dtype=np.uint8),
                 cast_shadow=False, receive_shadow=False)
             spheres.on_drag(self._on_drag)
+            spheres.on_click(self._on_click)
         fixed = None
         if self.fixed:
             fixed = self.scene.add_batched_meshes_simple(
@@ -481,6 +489,7 @@ class FaceScene:
             self.ctl.begin_drag(lid)
             self._highlight(lid)
             self._show_active_label(lid)
+            self.select(lid)
             return
         active = self._active.get(key)
         if active is None or active[0] != lid:
@@ -491,6 +500,29 @@ class FaceScene:
             self.ctl.end_drag()
             self._highlight(None)
             self._show_active_label(None)
+
+    def _on_click(self, event: viser.SceneNodePointerEvent[viser.BatchedMeshHandle]
+                  ) -> None:
+        """A click on a sphere selects its landmark (the depth arrow appears there)."""
+        idx = event.instance_index
+        if idx is not None and 0 <= idx < len(self.editable):
+            self.select(self.editable[idx])
+
+    def select(self, lid: str | None) -> None:
+        """Show the depth arrow at editable landmark ``lid`` (None: hide it)."""
+        if lid is None or lid not in self._lm_vertex:
+            self.depth.select(None)
+            return
+        p = self._shown(self.ctl.landmarks)[lid]
+        self.depth.select(lid, p, self.normals[self._lm_vertex[lid]])
+
+    def _shown(self, lms: Landmarks) -> Landmarks:
+        """Where landmarks at ``lms`` (controller positions) are drawn: plus the
+        manoeuvres' offset of each in the last published simulation."""
+        sim = self.ctl.simulation
+        if sim.surface_landmarks is None:
+            return lms
+        return {k: p + sim.landmark_offset(k) for k, p in lms.items()}
 
     def _highlight(self, lid: str | None) -> None:
         if self.spheres is None:
@@ -518,7 +550,7 @@ class FaceScene:
         return lid == self._active_label or (self.show_labels and lid in self.editable)
 
     def _refresh_labels(self) -> None:
-        lms = self.ctl.landmarks
+        lms = self._shown(self.ctl.landmarks)
         for i, h in self.labels.items():
             want = self._label_wanted(i)
             if want:
@@ -534,6 +566,9 @@ class FaceScene:
     # updates
     def set_landmarks(self, lms: Landmarks) -> None:
         """Move the spheres and labels (cheap; called as soon as landmarks change)."""
+        lms = self._shown(lms)
+        if self.depth.landmark in lms:
+            self.depth.follow(lms[self.depth.landmark])
         if self.spheres is not None:
             self.spheres.batched_positions = np.array([lms[i] for i in self.editable])
         if self.fixed_spheres is not None:
@@ -647,6 +682,7 @@ class FaceScene:
             self.ctl.on_simulation.remove(self.update)
         if self.set_landmarks in self.ctl.on_landmarks:
             self.ctl.on_landmarks.remove(self.set_landmarks)
+        self.depth.remove()
         handles: list[viser.SceneNodeHandle | None] = [
                    self.rest, self.nose.handle, self.outline, self.original,
                    self.colormap, self.spheres, self.fixed_spheres, self.ad,

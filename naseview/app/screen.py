@@ -276,7 +276,8 @@ class Screen:
         if ctl is None or self.closed:
             return
         p = self.panels
-        p.set_measurements(ctl.baseline.measurements, sim.measurements)
+        p.set_measurements(ctl.baseline.measurements, sim.measurements,
+                           self.app.calliper_inputs)
         if self.scene is not None and self.scene.show_colormap:
             self._update_colorbar(sim)
         if not sim.interactive:
@@ -293,6 +294,7 @@ class Screen:
         if ctl is None or self.closed:
             return
         self.panels.set_history(ctl.can_undo, ctl.can_redo, ctl.is_edited())
+        self.panels.set_plan(ctl.manoeuvres)
         if bool(self.panels.symmetric.value) != ctl.symmetric:   # set in another tab
             set_value(self.panels.symmetric, ctl.symmetric)
 
@@ -463,6 +465,15 @@ class Screen:
 
     def set_symmetric(self, on: bool) -> None:
         self.app.set_symmetric(on)
+
+    def set_manoeuvre(self, name: str, amount: float) -> None:
+        """One manoeuvre of the patient's plan (every tab's slider follows)."""
+        if self.controller is not None:
+            self.controller.set_manoeuvre(name, amount)
+
+    def clear_plan(self) -> None:
+        if self.controller is not None:
+            self.controller.set_manoeuvres({})
 
     def set_visible(self, **kw: bool) -> None:
         if self.scene is not None:

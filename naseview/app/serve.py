@@ -69,8 +69,9 @@ from naseview.facemodel import store
 from naseview.facemodel.ict import ICT_CREDIT
 from naseview.intake.patients import PatientFolders
 from naseview.landmarks import LANDMARKS
+from naseview.measurements import calliper_inputs
 from naseview.pipeline import PipelineParams, PipelineResult, reconstruct
-from naseview.reconstruction import output_case_dir
+from naseview.reconstruction import calliper_distances, output_case_dir
 from naseview.stage1_landmarks import SfmResult
 from naseview.stage2_curves import CurveParams
 from naseview.stage3_mesh import RefineParams
@@ -285,6 +286,18 @@ class NaseviewApp:
             panel.close()
         if screen is not None:
             screen.close()
+
+    @property
+    def calliper_inputs(self) -> set[str]:
+        """Measurement names that are calliper distances typed at intake (the open case's
+        ``scale_mm``, and the reconstruction's echo of it): labelled inputs, never
+        findings."""
+        keys = [f"{a}-{b}" for a, b in self.case.scale_mm] if self.case is not None else []
+        ctl = self.controller
+        rec = ctl.baseline.reconstruction if ctl is not None else None
+        if rec is not None:
+            keys += list(calliper_distances(rec))
+        return calliper_inputs(keys)
 
     def screen_of(self, client: viser.ClientHandle | int) -> Screen | None:
         """The screen of a tab (a client or its id), None when it is gone."""
@@ -595,7 +608,8 @@ class NaseviewApp:
             self.photos = self._thumbnails(self.cameras)
             fixed = [k for k in baseline.landmarks if k not in self.editable]
             self.edit_help = ("Drag a **red** sphere to reshape the nose"
-                              + (f" (grey = fixed: {', '.join(fixed)})" if fixed else "") + ".")
+                              + (f" (grey = fixed: {', '.join(fixed)})" if fixed else "")
+                              + "; the arrow on the selected sphere moves it in or out.")
             self._initial_camera(baseline)
             prepare_face_look(self)      # the texture, baked once here for every tab
             self._each_screen(lambda s: s.show_case())
@@ -757,7 +771,10 @@ class NaseviewApp:
             return f"{name}-{part}-{state}.{fmt}", self._mesh_export(ctl, fmt, part, state)
         if kind == "landmarks":
             base = ctl.baseline
-            lms = ctl.landmarks
+            sim = ctl.simulation
+            lms = ctl.landmarks                 # where the simulation's surface puts them
+            lms = {k: p + sim.landmark_offset(k) for k, p in lms.items()} \
+                if sim.landmarks.keys() == lms.keys() else lms
             data = (landmarks_json(lms, base.landmarks, self.case_id) if fmt == "json"
                     else landmarks_csv(lms, base.landmarks))
             return f"{name}-landmarks.{fmt}", data

@@ -165,6 +165,9 @@ class Solved:
         ad_landmarks: (A, 3).
         measurements: name -> value.
         warnings: one line each (handle clamped, triangles folded...), shown in the page.
+        surface_landmarks: id -> (3,) where each landmark sits on the solved surface when
+            manoeuvres moved it beyond the requested position (request + the manoeuvres'
+            offset), or None (the requested positions are on the surface).
     """
 
     V: np.ndarray
@@ -172,6 +175,12 @@ class Solved:
     ad_landmarks: np.ndarray
     measurements: dict[str, float]
     warnings: tuple[str, ...] = ()
+    surface_landmarks: Landmarks | None = None
+
+
+Manoeuvres = dict[str, float]
+"""Manoeuvre name -> amount (mm or degrees; :data:`naseview.editing.manoeuvres.MANOEUVRES`),
+non-zero amounts only."""
 
 
 class Solver(Protocol):
@@ -180,10 +189,12 @@ class Solver(Protocol):
 
     ``interactive`` is True while a drag is in progress: the solver may trade accuracy
     for speed (fewer iterations); the controller asks for a full solve when the drag ends.
+    ``manoeuvres`` (given only when some are set): amounts of the surgical manoeuvres to
+    add on top of the landmark deformation.
     """
 
     def __call__(self, landmarks: Mapping[str, np.ndarray],
-                 interactive: bool = False) -> Solved: ...
+                 interactive: bool = False, **kwargs: Any) -> Solved: ...
 
 
 @dataclass(frozen=True)
@@ -199,6 +210,9 @@ class Simulation:
         solve_seconds: wall time of the solve (0 for a cached or baseline state).
         warnings: the solver's one-line warnings.
         interactive: solved during a drag (possibly fewer iterations than a final solve).
+        manoeuvres: the manoeuvre amounts it was solved for (empty: none).
+        surface_landmarks: where the landmarks sit on ``V`` when manoeuvres moved them
+            (:attr:`Solved.surface_landmarks`), else None.
     """
 
     revision: int
@@ -211,6 +225,22 @@ class Simulation:
     solve_seconds: float = 0.0
     warnings: tuple[str, ...] = ()
     interactive: bool = False
+    manoeuvres: Manoeuvres = field(default_factory=dict)
+    surface_landmarks: Landmarks | None = None
+
+    @property
+    def shown_landmarks(self) -> Landmarks:
+        """Where the landmarks are drawn: on the surface (after manoeuvres) where known,
+        else at the requested positions."""
+        return {**self.landmarks, **(self.surface_landmarks or {})}
+
+    def landmark_offset(self, landmark: str) -> np.ndarray:
+        """(3,) mm from a landmark's requested position to where it is drawn (the
+        manoeuvres' displacement of it; zeros without manoeuvres)."""
+        s = self.surface_landmarks
+        if s is None or landmark not in s or landmark not in self.landmarks:
+            return np.zeros(3)
+        return np.asarray(s[landmark] - self.landmarks[landmark], np.float64)
 
 
 def baseline_simulation(baseline: Baseline, revision: int = 0,
@@ -222,9 +252,11 @@ def baseline_simulation(baseline: Baseline, revision: int = 0,
 
 
 def _measurements_of(rec: Reconstruction, V: np.ndarray, F: np.ndarray) -> dict[str, float]:
-    """The reconstruction's measurements, or computed on the mesh when it has none."""
-    return dict(rec.measurements) or clinical_measurements(rec.landmarks, rec.curves or None,
-                                                           V, F)
+    """The reconstruction's measurements as written with it, unless the file is of an
+    earlier version (it lacks measurements that are computed today, so its values follow
+    older definitions): then computed now on its mesh, as the simulation's values are."""
+    now = clinical_measurements(rec.landmarks, rec.curves or None, V, F)
+    return dict(rec.measurements) if set(rec.measurements) >= set(now) else now
 
 
 def _from_reconstruction(rec: Reconstruction, V: np.ndarray, F: np.ndarray,

@@ -27,7 +27,7 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -35,12 +35,14 @@ import numpy as np
 from naseview.editing.baseline import (
     Baseline,
     Landmarks,
+    Manoeuvres,
     Simulation,
     Solver,
     baseline_simulation,
     copy_landmarks,
     landmarks_equal,
 )
+from naseview.editing.manoeuvres import check_amounts
 from naseview.editing.session import SavedSimulation, Session, session_to_json
 from naseview.errors import NaseviewError
 from naseview.landmarks import LANDMARKS
@@ -53,22 +55,28 @@ MIRROR = np.array([-1.0, 1.0, 1.0])
 
 @dataclass
 class _Entry:
-    """One undo entry: landmarks, the request revision that shows them, its cached solve."""
+    """One undo entry: landmarks and manoeuvres, the request revision that shows them, its
+    cached solve, and ``tag`` (the manoeuvre whose control made it, so that a slider moved
+    in one go stays one entry)."""
 
     landmarks: Landmarks
     revision: int
     sim: Simulation | None = None
+    manoeuvres: Manoeuvres = field(default_factory=dict)
+    tag: str | None = None
 
 
 @dataclass
 class _Request:
-    """The latest-request slot: solve ``landmarks`` (or publish ``ready`` as is)."""
+    """The latest-request slot: solve ``landmarks`` with ``manoeuvres`` (or publish
+    ``ready`` as is)."""
 
     revision: int
     generation: int
     landmarks: Landmarks
     ready: Simulation | None = None
     interactive: bool = False
+    manoeuvres: Manoeuvres = field(default_factory=dict)
 
 
 @dataclass
@@ -80,7 +88,13 @@ class _Drag:
 
 
 class EditController:
-    """Landmark edits, undo / redo, symmetric mode and the solve worker.
+    """Landmark edits and surgical manoeuvres, undo / redo, symmetric mode and the solve
+    worker.
+
+    The edit state is the landmark positions plus the manoeuvre amounts
+    (:data:`naseview.editing.manoeuvres.MANOEUVRES`, e.g. ``{"hump_reduction": 2.0}``);
+    undo / redo / reset and session files cover both. A drag is one undo entry; changes
+    of one manoeuvre in a row (a slider moved, a value retyped) are one entry too.
 
     Listeners (plain lists of callables, called outside the lock):
 
@@ -108,6 +122,10 @@ class EditController:
         self._rev = 0
         base = baseline_simulation(baseline)
         self._landmarks = copy_landmarks(baseline.landmarks)
+        self._manoeuvres: Manoeuvres = {}
+        self._last_tag: str | None = None
+        """The manoeuvre the last edit set (its next change joins that undo entry); any
+        other edit, undo, redo or reset clears it."""
         self._history: list[_Entry] = [_Entry(copy_landmarks(baseline.landmarks), 0, base)]
         self._index = 0
         self._history_limit = max(2, int(history_limit))
@@ -148,6 +166,12 @@ class EditController:
             return copy_landmarks(self._landmarks)
 
     @property
+    def manoeuvres(self) -> Manoeuvres:
+        """Copy of the current manoeuvre amounts (name -> mm / degrees, non-zero only)."""
+        with self._lock:
+            return dict(self._manoeuvres)
+
+    @property
     def generation(self) -> int:
         """Incremented by :meth:`rebase` / :meth:`set_solver`."""
         return self._generation
@@ -183,9 +207,10 @@ class EditController:
         return d.landmark if d is not None else None
 
     def is_edited(self) -> bool:
-        """True when the current landmarks differ from the baseline."""
+        """True when the current landmarks differ from the baseline or a manoeuvre is set."""
         with self._lock:
-            return not landmarks_equal(self._landmarks, self._baseline.landmarks)
+            return bool(self._manoeuvres) or not landmarks_equal(self._landmarks,
+                                                                 self._baseline.landmarks)
 
     # editing
     def set_symmetric(self, on: bool) -> None:
@@ -247,6 +272,59 @@ class EditController:
         self._notify(self.on_landmarks, out)
         self._notify(self.on_history)
 
+    def set_manoeuvre(self, name: str, amount: float) -> None:
+        """Set one manoeuvre's amount (0 removes it) and queue a solve.
+
+        Successive calls for the same manoeuvre with nothing else in between update one
+        undo entry (a slider dragged, a value retyped); a call that brings the state back
+        to the previous entry removes that entry.
+
+        Raises:
+            NaseviewError: unknown manoeuvre or an amount outside its clinical range.
+        """
+        amounts = check_amounts({name: amount}, "manoeuvre")
+        with self._lock:
+            if self._drag is not None:
+                self._commit_locked()
+            new = dict(self._manoeuvres)
+            new.pop(name, None)
+            new.update(amounts)
+            if new == self._manoeuvres:
+                return
+            self._manoeuvres = new
+            self._submit_locked()
+            top = self._history[self._index]
+            coalesce = top.tag == name and self._last_tag == name \
+                and self._index == len(self._history) - 1 and self._index > 0
+            if coalesce and _same_state(self._history[self._index - 1], self._landmarks, new):
+                del self._history[self._index]
+                self._index -= 1
+            elif coalesce:
+                top.manoeuvres = dict(new)
+                top.revision = self._rev
+                top.sim = None
+            else:
+                self._push_locked(tag=name)
+            self._last_tag = name
+        self._notify(self.on_history)
+
+    def set_manoeuvres(self, amounts: Mapping[str, float]) -> None:
+        """Replace every manoeuvre amount at once (``{}`` clears them), one undo entry.
+
+        Raises:
+            NaseviewError: an unknown manoeuvre or an amount outside its range.
+        """
+        new = check_amounts(dict(amounts), "manoeuvres")
+        with self._lock:
+            if self._drag is not None:
+                self._commit_locked()
+            if new == self._manoeuvres:
+                return
+            self._manoeuvres = new
+            self._submit_locked()
+            self._push_locked()
+        self._notify(self.on_history)
+
     def undo(self) -> bool:
         """Go back one entry; the mesh shown is exactly the one solved for it."""
         with self._lock:
@@ -279,10 +357,12 @@ class EditController:
         """Back to the reconstruction (an undoable entry); shows the baseline exactly."""
         with self._lock:
             self._drag = None
-            if landmarks_equal(self._landmarks, self._baseline.landmarks):
+            if not self._manoeuvres and landmarks_equal(self._landmarks,
+                                                        self._baseline.landmarks):
                 return
             sim = self._history[0].sim
             self._landmarks = copy_landmarks(self._baseline.landmarks)
+            self._manoeuvres = {}
             self._rev += 1
             self._truncate_redo_locked()
             entry = _Entry(copy_landmarks(self._landmarks), self._rev, None)
@@ -311,12 +391,14 @@ class EditController:
                 e.sim = None if i else baseline_simulation(baseline, e.revision,
                                                            self._generation)
             self._landmarks = copy_landmarks(self._history[self._index].landmarks)
+            self._manoeuvres = dict(self._history[self._index].manoeuvres)
             self._rev += 1
             self._history[self._index].revision = self._rev
             self._min_rev = self._rev
             entry = self._history[self._index]
             self._pending = _Request(self._rev, self._generation,
-                                     copy_landmarks(self._landmarks), entry.sim)
+                                     copy_landmarks(self._landmarks), entry.sim,
+                                     manoeuvres=dict(self._manoeuvres))
             self._cond.notify_all()
             out = copy_landmarks(self._landmarks)
         self._notify(self.on_landmarks, out)
@@ -361,12 +443,16 @@ class EditController:
             lms = copy_landmarks(self._landmarks if self._drag is None
                                  else self._history[self._index].landmarks)
             history = [copy_landmarks(e.landmarks) for e in self._history]
+            plans = [dict(e.manoeuvres) for e in self._history]
             index = self._index
             symmetric = self._symmetric
-        saved = (SavedSimulation(sim.V, sim.curves, sim.ad_landmarks, sim.measurements)
-                 if landmarks_equal(sim.landmarks, lms) else None)
+            manoeuvres = dict(self._manoeuvres)
+        saved = (SavedSimulation(sim.V, sim.curves, sim.ad_landmarks, sim.measurements,
+                                 sim.surface_landmarks)
+                 if landmarks_equal(sim.landmarks, lms) and sim.manoeuvres == manoeuvres
+                 else None)
         return Session(self._baseline, lms, history, index, symmetric, saved,
-                       dict(app or {}))
+                       dict(app or {}), manoeuvres=manoeuvres, history_manoeuvres=plans)
 
     def session_json(self, extra: Mapping[str, Any] | None = None) -> dict[str, Any]:
         """The ``naseview.session/1`` JSON object of :meth:`snapshot`."""
@@ -385,25 +471,32 @@ class EditController:
         """Take the history, landmarks and symmetric flag of ``session``; publish its
         saved simulation, the baseline, or queue a solve."""
         hist = session.history or [session.baseline.landmarks]
-        self._history = [_Entry(copy_landmarks(h), i) for i, h in enumerate(hist)]
+        plans = session.history_manoeuvres or [{} for _ in hist]
+        self._history = [_Entry(copy_landmarks(h), i, manoeuvres=dict(m))
+                         for i, (h, m) in enumerate(zip(hist, plans, strict=True))]
         self._history[0].sim = baseline_simulation(session.baseline)
         self._index = min(max(0, session.history_index), len(self._history) - 1)
         self._rev = len(self._history)
         self._landmarks = copy_landmarks(session.landmarks)
+        self._manoeuvres = dict(session.manoeuvres)
         self._symmetric = session.symmetric
         entry = self._history[self._index]
-        if not landmarks_equal(entry.landmarks, self._landmarks):
+        if not _same_state(entry, self._landmarks, self._manoeuvres):
             self._rev += 1
-            entry = _Entry(copy_landmarks(self._landmarks), self._rev)
+            entry = _Entry(copy_landmarks(self._landmarks), self._rev,
+                           manoeuvres=dict(self._manoeuvres))
             self._history.insert(self._index + 1, entry)
             self._index += 1
         if session.simulation is not None:
             s = session.simulation
             sim = Simulation(entry.revision, 0, copy_landmarks(self._landmarks), s.V,
-                             s.curves, s.ad_landmarks, s.measurements)
+                             s.curves, s.ad_landmarks, s.measurements,
+                             manoeuvres=dict(self._manoeuvres),
+                             surface_landmarks=s.surface_landmarks)
             entry.sim = sim
             self._published = sim
-        elif landmarks_equal(self._landmarks, session.baseline.landmarks):
+        elif not self._manoeuvres and landmarks_equal(self._landmarks,
+                                                      session.baseline.landmarks):
             self._published = baseline_simulation(session.baseline)
         else:
             self._submit_locked()
@@ -447,7 +540,8 @@ class EditController:
                        interactive: bool = False) -> None:
         self._rev += 1
         self._pending = _Request(self._rev, self._generation,
-                                 copy_landmarks(self._landmarks), ready, interactive)
+                                 copy_landmarks(self._landmarks), ready, interactive,
+                                 dict(self._manoeuvres))
         self._cond.notify_all()
 
     def _commit_locked(self) -> None:
@@ -455,16 +549,18 @@ class EditController:
         if self._drag is None:
             return
         self._drag = None
-        if not landmarks_equal(self._landmarks, self._history[self._index].landmarks):
+        if not _same_state(self._history[self._index], self._landmarks, self._manoeuvres):
             self._submit_locked(interactive=False)
             self._push_locked()
 
     def _truncate_redo_locked(self) -> None:
         del self._history[self._index + 1:]
 
-    def _push_locked(self) -> None:
+    def _push_locked(self, tag: str | None = None) -> None:
         self._truncate_redo_locked()
-        entry = _Entry(copy_landmarks(self._landmarks), self._rev)
+        entry = _Entry(copy_landmarks(self._landmarks), self._rev,
+                       manoeuvres=dict(self._manoeuvres), tag=tag)
+        self._last_tag = tag
         p = self._published
         if p.revision == self._rev and p.generation == self._generation \
                 and not p.interactive:
@@ -482,6 +578,8 @@ class EditController:
     def _goto_locked(self, entry: _Entry, ready: Simulation | None = None) -> None:
         """Show ``entry``: publish its cached solve, or solve it; drop results in flight."""
         self._landmarks = copy_landmarks(entry.landmarks)
+        self._manoeuvres = dict(entry.manoeuvres)
+        self._last_tag = None
         sim = ready or entry.sim
         if sim is not None and sim.generation != self._generation:
             sim = None
@@ -491,10 +589,13 @@ class EditController:
         if sim is not None:
             sim = Simulation(self._rev, self._generation, copy_landmarks(entry.landmarks),
                              sim.V, sim.curves, sim.ad_landmarks, sim.measurements,
-                             sim.solve_seconds, sim.warnings)
+                             sim.solve_seconds, sim.warnings,
+                             manoeuvres=dict(entry.manoeuvres),
+                             surface_landmarks=sim.surface_landmarks)
             entry.sim = sim
         self._pending = _Request(self._rev, self._generation,
-                                 copy_landmarks(self._landmarks), sim)
+                                 copy_landmarks(self._landmarks), sim,
+                                 manoeuvres=dict(self._manoeuvres))
         self._cond.notify_all()
 
     def _notify(self, listeners: list[Callable[..., None]], *args: Any) -> None:
@@ -538,16 +639,20 @@ class EditController:
         """Run the solver outside the lock: (simulation, None) or (None, error line)."""
         t0 = time.perf_counter()
         try:
-            out = solver(req.landmarks, interactive=req.interactive)
+            extra = {"manoeuvres": dict(req.manoeuvres)} if req.manoeuvres else {}
+            out = solver(req.landmarks, interactive=req.interactive, **extra)
             V = np.asarray(out.V, dtype=np.float64)
             if V.shape != self._baseline.V.shape or not np.all(np.isfinite(V)):
                 raise NaseviewError(
                     f"the solver returned {V.shape} vertices with non-finite or "
                     f"missing values (expected {self._baseline.V.shape})")
             dt = time.perf_counter() - t0
+            shown = getattr(out, "surface_landmarks", None)
             sim = Simulation(req.revision, req.generation, req.landmarks, V,
                              dict(out.curves), np.asarray(out.ad_landmarks),
-                             dict(out.measurements), dt, tuple(out.warnings), req.interactive)
+                             dict(out.measurements), dt, tuple(out.warnings), req.interactive,
+                             dict(req.manoeuvres),
+                             None if shown is None else copy_landmarks(shown))
             self.solve_seconds.append(dt)
             return sim, None
         except Exception as e:  # report, keep serving
@@ -578,6 +683,11 @@ class EditController:
                 self._error = None
                 return True, True
             return True, False
+
+
+def _same_state(entry: _Entry, landmarks: Landmarks, manoeuvres: Manoeuvres) -> bool:
+    """True when ``entry`` holds exactly these landmarks and manoeuvre amounts."""
+    return entry.manoeuvres == manoeuvres and landmarks_equal(entry.landmarks, landmarks)
 
 
 def _carry(lms: Landmarks, old: Baseline, new: Baseline) -> Landmarks:

@@ -32,13 +32,14 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
-from naseview.editing.baseline import Baseline, Landmarks
+from naseview.editing.baseline import Baseline, Landmarks, Manoeuvres
+from naseview.editing.manoeuvres import check_amounts
 from naseview.errors import NaseviewError
 from naseview.fileio import atomic_write_json, read_json, resolve_stored_path, stored_path
 from naseview.reconstruction import CASE_DIR_KEY, index_array, numbers_dict, points_array
@@ -55,12 +56,15 @@ class SavedSimulation:
         curves: curve name -> (L, 3).
         ad_landmarks: (A, 3).
         measurements: name -> value.
+        surface_landmarks: id -> (3,) where the landmarks sit on ``V`` when manoeuvres
+            moved them, or None.
     """
 
     V: np.ndarray
     curves: dict[str, np.ndarray]
     ad_landmarks: np.ndarray
     measurements: dict[str, float]
+    surface_landmarks: Landmarks | None = None
 
 
 MAX_NAME_LENGTH = 80
@@ -142,6 +146,9 @@ class Session:
         path: the file it came from.
         record: name, times and reconstruction of a simulation kept in a patient folder
             (the ``record`` object), or None.
+        manoeuvres: current manoeuvre amounts (name -> mm / degrees, non-zero only).
+        history_manoeuvres: the manoeuvre amounts of each undo entry (same length as
+            ``history``), or None (none in any entry: a file written before manoeuvres).
     """
 
     baseline: Baseline
@@ -153,6 +160,8 @@ class Session:
     app: dict[str, Any]
     path: Path | None = None
     record: SessionRecord | None = None
+    manoeuvres: Manoeuvres = field(default_factory=dict)
+    history_manoeuvres: list[Manoeuvres] | None = None
 
     def case_folder(self) -> Path | None:
         """The case folder holding the photos: ``app.case_dir`` resolved against the
@@ -184,13 +193,17 @@ class SessionSource(Protocol):
 def _simulation_json(sim: SavedSimulation, base: Baseline) -> dict[str, Any]:
     """The ``edit.simulation`` object: only the vertices that differ from the baseline."""
     changed = np.flatnonzero(np.any(sim.V != base.V, axis=1))
-    return {
+    out: dict[str, Any] = {
         "changed_vertex_ids": changed.tolist(),
         "changed_vertices": sim.V[changed].tolist(),
         "curves": {k: np.asarray(c).reshape(-1, 3).tolist() for k, c in sim.curves.items()},
         "ad_landmarks": np.asarray(sim.ad_landmarks).reshape(-1, 3).tolist(),
         "measurements": {k: float(v) for k, v in sim.measurements.items()},
     }
+    if sim.surface_landmarks is not None:
+        out["surface_landmarks"] = {k: np.asarray(v).tolist()
+                                    for k, v in sim.surface_landmarks.items()}
+    return out
 
 
 def _app_json(app: Mapping[str, Any], folder: Path | None) -> dict[str, Any]:
@@ -229,6 +242,9 @@ def session_to_json(session: Session, folder: str | os.PathLike[str] | None = No
             "history": [{k: v.tolist() for k, v in h.items()} for h in session.history],
             "history_index": session.history_index,
             "symmetric": session.symmetric,
+            "manoeuvres": dict(session.manoeuvres),
+            "history_manoeuvres": (None if session.history_manoeuvres is None
+                                   else [dict(m) for m in session.history_manoeuvres]),
             "simulation": (None if session.simulation is None
                            else _simulation_json(session.simulation, base)),
         },
@@ -302,9 +318,33 @@ def _saved_simulation(value: object, baseline: Baseline, where: str) -> SavedSim
                           len(ids))
     curves = {k: points_array(c, where, f"{key}.curves.{k}")
               for k, c in _object(s.get("curves", {}), where, f"{key}.curves").items()}
+    shown = s.get("surface_landmarks")
     return SavedSimulation(
         V, curves, points_array(s.get("ad_landmarks", []), where, f"{key}.ad_landmarks"),
-        numbers_dict(s.get("measurements", {}), where, f"{key}.measurements"))
+        numbers_dict(s.get("measurements", {}), where, f"{key}.measurements"),
+        None if shown is None else _landmarks(shown, baseline, where,
+                                              f"{key}.surface_landmarks"))
+
+
+def _plans(edit: Mapping[str, Any], n_history: int, where: str
+           ) -> tuple[Manoeuvres, list[Manoeuvres] | None]:
+    """``edit.manoeuvres`` (current amounts) and ``edit.history_manoeuvres`` (one per
+    history entry), each checked against the manoeuvres' clinical ranges."""
+    value = edit.get("manoeuvres")
+    current = {} if value is None else check_amounts(value, f"{where}: key 'edit.manoeuvres'")
+    hist = edit.get("history_manoeuvres")
+    if hist is None:
+        return current, None
+    if not isinstance(hist, list) or len(hist) != n_history:
+        raise NaseviewError(f"{where}: key 'edit.history_manoeuvres': expected a list of "
+                            f"{n_history} objects (one per edit.history entry); save the "
+                            "session again from the app")
+    plans = [check_amounts(m, f"{where}: key 'edit.history_manoeuvres.{i}'")
+             for i, m in enumerate(hist)]
+    if plans and plans[0]:
+        raise NaseviewError(f"{where}: key 'edit.history_manoeuvres.0': the first entry is "
+                            "the reconstruction itself and has no manoeuvres; expected {}")
+    return current, plans
 
 
 def _check_header(obj: Mapping[str, Any], where: str) -> None:
@@ -353,4 +393,6 @@ def session_from_json(obj: Mapping[str, Any], where: str = "session",
         raise NaseviewError(f"{where}: key 'app.{CASE_DIR_KEY}': expected a path relative "
                             "to the session file, or null")
     record = _record(obj.get("record"), where)
-    return Session(baseline, lms, history, index, symmetric, saved, app, path, record)
+    manoeuvres, plans = _plans(edit, len(history), where)
+    return Session(baseline, lms, history, index, symmetric, saved, app, path, record,
+                   manoeuvres, plans)

@@ -7,6 +7,12 @@ deformation is the paper's ARAP (eq. 19-20) + cotangent smoothing (eq. 21); the 
 acts on the displacement (``smooth_displacement=True``) so an unedited nose stays exactly
 the reconstruction.
 
+Surgical manoeuvres (:mod:`naseview.editing.manoeuvres`: hump reduction, tip rotation...)
+are displacement fields defined on the baseline; a solve adds their sum to the ARAP result,
+moves the landmarks by the same field (so the spheres stay on the surface) and checks the
+result for folded triangles. A change of manoeuvre amounts alone reuses the last ARAP
+solve (no re-solve: the fields are cheap).
+
 Curves and ad-landmarks follow the surface: each of their points is attached to the
 baseline mesh (triangle, barycentric coordinates, offset from the surface) and carried
 along by the deformed triangle. Measurements are
@@ -28,10 +34,16 @@ import igl
 import numpy as np
 from scipy.spatial import cKDTree
 
-from naseview.editing.baseline import Baseline, Solved
+from naseview.editing.baseline import Baseline, Landmarks, Solved, copy_landmarks, landmarks_equal
+from naseview.editing.manoeuvres import ManoeuvrePlan, folded_triangles
 from naseview.landmarks import LANDMARK_IDS
 from naseview.measurements import clinical_measurements
 from naseview.stage3_mesh import NoseDeformer, RefineParams, deform_region
+
+HUMP_MARGIN_MM = 0.25
+"""A hump reduction more than this beyond the measured dorsal hump is warned about: the
+dorsum it leaves is concave (the hump measure, 0 for a straight or concave dorsum, cannot
+show it)."""
 
 FIXED_LANDMARKS: tuple[str, ...] = ("g", "mf_l", "mf_r")
 """Bony reference points outside the nose: shown, never dragged."""
@@ -126,13 +138,20 @@ class NoseEditSolver:
         region = deform_region(V, F, baseline.nose_ids, self.handle_ids,
                                self.params.handle_clearance_mm)
         self.deformer = NoseDeformer(V, F, region, self.handle_ids, self.params)
-        self.region_ids = np.asarray(self.deformer.region_vertex_ids, np.int64)
+        self.plan = ManoeuvrePlan(V, F, baseline.nose_ids, baseline.landmarks,
+                                  baseline.curves)
+        """The manoeuvres' displacement fields on the baseline (built once)."""
+        self.region_ids = np.union1d(np.asarray(self.deformer.region_vertex_ids, np.int64),
+                                     np.asarray(self.plan.region_ids, np.int64))
+        """Vertices a solve may move: the ARAP region and every vertex a manoeuvre moves."""
+        self._nose_faces = np.flatnonzero(np.isin(F, self.region_ids).any(axis=1))
         self._fast = replace(self.params, arap_iterations=max(1, int(interactive_iterations)),
                              arap_warn_mm=float("inf"))
         self._base_handles = V[self.handle_ids].copy()
         self._base_lms = {k: np.asarray(baseline.landmarks[k], np.float64)
                           for k in self.editable}
         self._attach_curves_and_ad_landmarks()
+        self._last: tuple[Landmarks, bool, np.ndarray, tuple[str, ...]] | None = None
 
     def _attach_curves_and_ad_landmarks(self) -> None:
         """Glue the baseline's curve points and ad-landmarks to its mesh, curves first."""
@@ -147,23 +166,63 @@ class NoseEditSolver:
         self._att = attach_points(allp, b.V, b.F)
 
     def __call__(self, landmarks: Mapping[str, np.ndarray],
-                 interactive: bool = False) -> Solved:
-        """Solve for landmark positions (id -> (3,) mm); see :class:`Solved`.
+                 interactive: bool = False,
+                 manoeuvres: Mapping[str, float] | None = None, **_: object) -> Solved:
+        """Solve for landmark positions (id -> (3,) mm) and manoeuvre amounts (name -> mm
+        / degrees); see :class:`Solved`.
 
         ``interactive``: a solve during a drag (few ARAP iterations, no convergence
         warning); else a full solve with ``params``.
         """
-        H = self._base_handles.copy()
-        for i, k in enumerate(self.editable):
-            H[i] += np.asarray(landmarks[k], np.float64) - self._base_lms[k]
-        rep = self.deformer.solve_report(H, warm_start=True,
-                                         params=self._fast if interactive else self.params)
-        V = rep.V
+        V, warnings = self._arap(landmarks, interactive)
         F = self.baseline.F
+        shown: Landmarks | None = None
+        lms: Mapping[str, np.ndarray] = landmarks
+        if manoeuvres:
+            plan = self.plan
+            V = V + plan.displacement(manoeuvres)
+            off = plan.landmark_offsets(manoeuvres)
+            shown = copy_landmarks(landmarks)
+            for k, d in off.items():
+                if k in shown:
+                    shown[k] = shown[k] + d
+            lms = shown
+            hump = self.baseline.measurements.get("dorsal_hump_depth")
+            cut = float(manoeuvres.get("hump_reduction", 0.0))
+            if hump is not None and cut > hump + HUMP_MARGIN_MM:
+                warnings += (f"hump reduction {cut:.1f} mm is more than the measured hump "
+                             f"({hump:.1f} mm): the dorsum becomes concave (a saddle) by "
+                             f"about {cut - hump:.1f} mm",)
+            skipped = [m for m in manoeuvres if m not in plan.available]
+            if skipped:
+                warnings += (f"manoeuvre(s) {', '.join(skipped)} need landmarks this "
+                             "reconstruction lacks; not applied",)
+            folded = folded_triangles(self.baseline.V, V, F, self._nose_faces)
+            if len(folded):
+                warnings += (f"{len(folded)} triangle(s) of the nose folded over: the "
+                             "manoeuvres and landmark moves together go too far; reduce one",)
         P = attached_positions(self._att, V, F)
         curves = dict(zip(self._curve_names,
                           np.split(P[:self._n_curve], self._curve_splits), strict=True)) \
             if self._curve_names else {}
         ad = P[self._n_curve:]
-        meas = clinical_measurements(landmarks, curves or None, V, F)
-        return Solved(V, curves, ad, meas, tuple(rep.warnings))
+        meas = clinical_measurements(lms, curves or None, V, F)
+        return Solved(V, curves, ad, meas, warnings, shown)
+
+    def _arap(self, landmarks: Mapping[str, np.ndarray], interactive: bool
+              ) -> tuple[np.ndarray, tuple[str, ...]]:
+        """(N, 3) ARAP solve for the landmark handles and its warnings; the last final
+        solve is reused while the landmarks stay the same (a manoeuvre change)."""
+        last = self._last
+        if last is not None and not interactive and not last[1] \
+                and landmarks_equal(last[0], {k: np.asarray(landmarks[k], np.float64)
+                                              for k in last[0]}) \
+                and landmarks.keys() == last[0].keys():
+            return last[2], last[3]
+        H = self._base_handles.copy()
+        for i, k in enumerate(self.editable):
+            H[i] += np.asarray(landmarks[k], np.float64) - self._base_lms[k]
+        rep = self.deformer.solve_report(H, warm_start=True,
+                                         params=self._fast if interactive else self.params)
+        self._last = (copy_landmarks(landmarks), interactive, rep.V, tuple(rep.warnings))
+        return rep.V, tuple(rep.warnings)

@@ -14,7 +14,7 @@ import numpy as np
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
 from naseview.report.data import DISCLAIMER
-from naseview.report.table import MeasurementRow, format_range, format_value
+from naseview.report.table import MeasurementRow, format_value
 from naseview.report.views import RENDER_VIEWS
 
 
@@ -52,12 +52,14 @@ def _label(img: np.ndarray, text: str) -> np.ndarray:
 
 def views_sheet(before: Mapping[str, np.ndarray], after: Mapping[str, np.ndarray] | None
                 ) -> np.ndarray:
-    """A grid PNG: one column per view, rows "before" and (if given) "after"."""
-    rows = [np.hstack([_label(before[v], f"{RENDER_VIEWS[v][0]} - before")
-                       for v in RENDER_VIEWS])]
-    if after:
-        rows.append(np.hstack([_label(after[v], f"{RENDER_VIEWS[v][0]} - after")
-                               for v in RENDER_VIEWS]))
+    """A grid PNG: one row per view (:data:`RENDER_VIEWS` order), before on the left and
+    (if given) after on the right."""
+    rows = []
+    for v in RENDER_VIEWS:
+        tiles = [_label(before[v], "before")]
+        if after:
+            tiles.append(_label(after[v], "after (simulation)"))
+        rows.append(np.hstack(tiles))
     return np.vstack(rows)
 
 
@@ -76,29 +78,36 @@ def photos_sheet(photos: Mapping[str, np.ndarray], height: int = 360) -> np.ndar
     return np.hstack(tiles)
 
 
+def _ascii(text: str) -> str:
+    """``text`` in the characters OpenCV's Hershey fonts can draw."""
+    return (text.replace("°", " deg").replace("—", "-").replace("–", "-")
+            .encode("ascii", "replace").decode("ascii"))
+
+
 def measurements_image(rows: list[MeasurementRow], width: int = 900) -> np.ndarray:
-    """The measurements table drawn as an image (BGR), for the PNG output."""
+    """The patient's measurements table drawn as an image (BGR), for the PNG output:
+    title, before, after, change and the usual range in grey; no flags, no colours."""
+    rows = [r for r in rows if r["group"] == "clinical"]
     line = 30
     h = line * (len(rows) + 3) + 10
     img = np.full((h, width, 3), 255, np.uint8)
     font = cv2.FONT_HERSHEY_SIMPLEX
-    cols = (10, 300, 440, 580, 720)
-    heads = ("measurement", "before", "after", "change", "typical")
+    cols = (10, 330, 450, 570, 670)
+    heads = ("measurement", "before", "after", "change", "usual adult range")
     for x, t in zip(cols, heads, strict=True):
-        cv2.putText(img, t, (x, line), font, 0.6, (0, 0, 0), 2, cv2.LINE_AA)
+        cv2.putText(img, t, (x, line), font, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
     for k, r in enumerate(rows):
         y = line * (k + 2)
         if k % 2 == 0:
             cv2.rectangle(img, (0, y - line + 8), (width, y + 8), (245, 245, 245), -1)
-        vals = (r["title"], format_value(r["before"], r["unit"]),
+        vals = (r["title"] + (" (calliper)" if r["calliper"] else ""),
+                format_value(r["before"], r["unit"]),
                 format_value(r["after"], r["unit"]),
                 format_value(r["change"], r["unit"], signed=True, ref=r["before"]),
-                format_range(r["normal"], r["unit"]))
+                r["usual"].replace("usual range ", ""))
         for j, (x, t) in enumerate(zip(cols, vals, strict=True)):
-            t = t.replace("°", " deg").replace("—", "-").replace("–", "-")
-            colour = (0, 0, 0)
-            if (j == 1 and r["flag_before"]) or (j == 2 and r["flag_after"]):
-                colour = (0, 90, 200)
-            cv2.putText(img, t, (x, y), font, 0.55, colour, 1, cv2.LINE_AA)
-    cv2.putText(img, DISCLAIMER, (10, h - 14), font, 0.6, (0, 0, 160), 2, cv2.LINE_AA)
+            grey = (120, 120, 120) if j == 4 else (0, 0, 0)
+            cv2.putText(img, _ascii(t), (x, y), font, 0.5 if j == 4 else 0.55, grey, 1,
+                        cv2.LINE_AA)
+    cv2.putText(img, DISCLAIMER, (10, h - 14), font, 0.6, (40, 40, 40), 2, cv2.LINE_AA)
     return img

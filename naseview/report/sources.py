@@ -6,51 +6,89 @@ from __future__ import annotations
 import argparse
 import os
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from naseview import reconstruction as _reconstruction
 from naseview.case import read_case
 from naseview.editing.baseline import Baseline, baseline_from_output_dir
 from naseview.editing.session import load_session
 from naseview.errors import NaseviewError
 from naseview.fileio import current_set_file
 from naseview.reconstruction import RECONSTRUCTION_FILE, Reconstruction, output_case_dir
-from naseview.report.data import ReportData
+from naseview.report.data import ReportData, surgeon_notes
 from naseview.report.page import write_report
+from naseview.report.pdf import write_report_pdf
 from naseview.texture.bake import FaceTexture, skin_texture
 
 CaseDir = str | os.PathLike[str] | None
 """A case directory (SPEC §3) to take the photos from, or None (no photos)."""
 
 
-def _photos_of(case_dir: CaseDir) -> dict[str, np.ndarray]:
-    """View -> (H, W, 3) uint8 BGR photo of the case (empty without a case folder).
+@dataclass
+class _CaseFacts:
+    """What a report takes from the case folder: its id, the surgeon's notes (machine
+    text dropped, :func:`~naseview.report.data.surgeon_notes`), the calliper distances
+    (``"<id>-<id>"`` -> mm) and the photos (view -> (H, W, 3) uint8 BGR)."""
+
+    case_id: str = ""
+    notes: str = ""
+    calliper: dict[str, float] = field(default_factory=dict)
+    photos: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def _facts_of(case_dir: CaseDir, photos: bool = True) -> _CaseFacts:
+    """The :class:`_CaseFacts` of a case folder (empty without one); photos only when
+    ``photos``.
 
     Raises:
         NaseviewError: the case folder cannot be read (its own one-line error).
     """
     if not case_dir:
-        return {}
+        return _CaseFacts()
     case = read_case(Path(case_dir))
-    return {v: case.load_image(v) for v in case.views}
+    return _CaseFacts(str(case.id), surgeon_notes(case.notes),
+                      {f"{a}-{b}": float(d) for (a, b), d in case.scale_mm.items()},
+                      {v: case.load_image(v) for v in case.views} if photos else {})
 
 
-def _stored_photos(find: Callable[[], Path | None], where: Path) -> dict[str, np.ndarray]:
-    """The photos of the case folder a session or output folder names (``find``), with
-    the fix added to the error when it is refused or cannot be read."""
+def _stored_facts(find: Callable[[], Path | None], where: Path, photos: bool
+                  ) -> _CaseFacts:
+    """The facts of the case folder a session or output folder names (``find``). For a
+    report with photos, an error names the fix; without photos (de-identified) a folder
+    that is refused or unreadable is simply not used (the report needs none of it)."""
     try:
-        return _photos_of(find())
+        return _facts_of(find(), photos)
     except NaseviewError as e:
+        if not photos:
+            return _CaseFacts()
         raise NaseviewError(f"{e} (photos named by {where}; pass --case CASE_DIR, or "
                             "--deidentified for a report without photos)") from None
+
+
+def _facts(case_dir: CaseDir, find: Callable[[], Path | None], where: Path,
+           photos: bool) -> _CaseFacts:
+    """The facts of ``case_dir`` when given (errors raised as they are), else of the
+    stored case folder (:func:`_stored_facts`)."""
+    return _facts_of(case_dir, photos) if case_dir else _stored_facts(find, where, photos)
+
+
+def _calliper(rec: Reconstruction | None, facts: _CaseFacts) -> dict[str, float]:
+    """The calliper distances echoed in ``reconstruction.json``
+    (:func:`naseview.reconstruction.calliper_distances`), else the case's."""
+    echo = getattr(_reconstruction, "calliper_distances", None)
+    found = dict(echo(rec)) if rec is not None and echo is not None else {}
+    return found or dict(facts.calliper)
 
 
 def report_data_from_session(path: str | os.PathLike[str], case_dir: CaseDir = None,
                              photos: bool = True) -> ReportData:
     """A :class:`ReportData` from a ``naseview.session/1`` file (before = its baseline,
-    after = its saved simulation when it has one); photos (unless ``photos`` is False)
-    from ``case_dir`` or the case folder the session names
+    after = its saved simulation when it has one, the plan = its manoeuvres); the case id
+    (the app's, else ``case.json``'s), notes, calliper keys and photos (unless ``photos``
+    is False) from ``case_dir`` or the case folder the session names
     (:meth:`~naseview.editing.session.Session.case_folder`: inside the session file's
     folder only).
 
@@ -61,22 +99,26 @@ def report_data_from_session(path: str | os.PathLike[str], case_dir: CaseDir = N
     b = s.baseline
     sim = s.simulation
     edited = sim is not None and not np.array_equal(sim.V, b.V)
-    pics = {} if not photos else (_photos_of(case_dir) if case_dir
-                                  else _stored_photos(s.case_folder, Path(path)))
+    facts = _facts(case_dir, s.case_folder, Path(path), photos)
     return ReportData(
-        case_id=str(s.app.get("case_id", Path(path).stem)), V_before=b.V, F=b.F,
+        case_id=str(s.app.get("case_id") or facts.case_id), V_before=b.V, F=b.F,
         nose_ids=b.nose_ids, measurements_before=dict(b.measurements),
         V_after=sim.V if edited and sim is not None else None,
         measurements_after=dict(sim.measurements) if edited and sim is not None else None,
-        photos=pics, credit=str(s.app.get("credit", "")), texture=_skin(b, pics))
+        photos=facts.photos, notes=facts.notes, credit=str(s.app.get("credit", "")),
+        texture=_skin(b, facts.photos),
+        manoeuvres={str(k): float(v) for k, v in getattr(s, "manoeuvres", {}).items()},
+        calliper=_calliper(getattr(b, "reconstruction", None), facts))
 
 
 def report_data_from_output(out_dir: str | os.PathLike[str], case_dir: CaseDir = None,
                             photos: bool = True) -> ReportData:
-    """A "before only" :class:`ReportData` from ``naseview reconstruct`` output; photos
-    (unless ``photos`` is False) from ``case_dir``, the case folder the output names
+    """A "before only" :class:`ReportData` from ``naseview reconstruct`` output; the
+    case id, notes, calliper keys and photos (unless ``photos`` is False) from
+    ``case_dir``, the case folder the output names
     (:func:`~naseview.reconstruction.output_case_dir`) or the output folder itself when
-    it holds ``case.json``."""
+    it holds ``case.json``. The case id is ``case.json``'s, never the output folder's
+    name."""
     out = Path(out_dir)
     b = baseline_from_output_dir(out)
     rec = b.reconstruction
@@ -84,11 +126,11 @@ def report_data_from_output(out_dir: str | os.PathLike[str], case_dir: CaseDir =
     def stored() -> Path | None:
         return output_case_dir(out, rec) or (out if (out / "case.json").is_file() else None)
 
-    pics = {} if not photos else (_photos_of(case_dir) if case_dir
-                                  else _stored_photos(stored, out / RECONSTRUCTION_FILE))
-    return ReportData(case_id=out.name, V_before=b.V, F=b.F, nose_ids=b.nose_ids,
-                      measurements_before=dict(b.measurements), photos=pics,
-                      credit=_credit_of(rec), texture=_skin(b, pics))
+    facts = _facts(case_dir, stored, out / RECONSTRUCTION_FILE, photos)
+    return ReportData(case_id=facts.case_id, V_before=b.V, F=b.F, nose_ids=b.nose_ids,
+                      measurements_before=dict(b.measurements), photos=facts.photos,
+                      notes=facts.notes, credit=_credit_of(rec),
+                      texture=_skin(b, facts.photos), calliper=_calliper(rec, facts))
 
 
 def _skin(baseline: Baseline, photos: dict[str, np.ndarray]) -> FaceTexture | None:
@@ -105,19 +147,26 @@ def _credit_of(rec: Reconstruction | None) -> str:
 
 
 def report_command(args: argparse.Namespace) -> int:
-    """``naseview report PATH [-o OUT.html] [--deidentified] [--case CASE_DIR]``."""
+    """``naseview report PATH [-o OUT.html] [--deidentified] [--case CASE_DIR]
+    [--surgeon S] [--clinic C] [--patient-name P] [--pdf]``: the HTML (+ PNGs) and, with
+    ``--pdf``, the PDF beside it (same name, ``.pdf``)."""
     path = Path(args.path)
-    photos = not args.deidentified
+    deid = bool(args.deidentified)
     if path.is_file():
-        data = report_data_from_session(path, getattr(args, "case", None), photos)
+        data = report_data_from_session(path, getattr(args, "case", None), not deid)
     elif current_set_file(path, RECONSTRUCTION_FILE).is_file():
-        data = report_data_from_output(path, getattr(args, "case", None), photos)
+        data = report_data_from_output(path, getattr(args, "case", None), not deid)
     else:
         raise NaseviewError(f"{path}: expected a session file (saved from the app) or a "
                             "`naseview reconstruct` output directory")
+    data.surgeon = str(getattr(args, "surgeon", None) or "")
+    data.clinic = str(getattr(args, "clinic", None) or "")
+    data.patient_name = str(getattr(args, "patient_name", None) or "")
     out = Path(args.output) if getattr(args, "output", None) else (
         (path.parent if path.is_file() else path)
-        / f"report{'-deidentified' if args.deidentified else ''}.html")
-    written = write_report(data, out, deidentified=bool(args.deidentified))
+        / f"report{'-deidentified' if deid else ''}.html")
+    written = write_report(data, out, deidentified=deid)
     print(written)
+    if getattr(args, "pdf", False):
+        print(write_report_pdf(written, written.with_suffix(".pdf")))
     return 0

@@ -17,27 +17,17 @@ from helpers import (
     CHROMIUM,
     CHROMIUM_FLAGS,
     browser_or_skip,
-    ict_baseline,
     project_to_view,
     wait_for,
 )
-
-from naseview.app.guard import guarded_viser_server
-from naseview.app.serve import NaseviewApp
 
 pytestmark = pytest.mark.browser
 
 
 
 @pytest.fixture(scope="module")
-def app_server():
-    server = guarded_viser_server("127.0.0.1", 0, verbose=False)
-    app = NaseviewApp(server)
-    app.open_baseline(ict_baseline(), case_id="ict-mean")
-    assert app.wait_ready(60)
-    yield server, app
-    app.close()
-    server.stop()
+def app_server(ict_served):
+    return ict_served
 
 
 def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):

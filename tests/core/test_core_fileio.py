@@ -120,3 +120,12 @@ def test_json_nan_is_refused(tmp_path: Path, literal: str):
     p.write_text('{"scale_mm": {"al_l-al_r": ' + literal + "}}")
     with pytest.raises(NaseviewError, match=f"{literal} is not a JSON number"):
         read_json(p)
+
+
+def test_json_nested_too_deeply_is_one_line_not_a_crash(tmp_path: Path):
+    p = tmp_path / "x.json"
+    p.write_text('{"edit": ' + "[" * 100_000 + "]" * 100_000 + "}")
+    with pytest.raises(NaseviewError) as e:
+        read_json(p)
+    msg = str(e.value)
+    assert str(p) in msg and "nested too deeply" in msg and "\n" not in msg

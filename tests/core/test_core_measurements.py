@@ -1,4 +1,5 @@
-"""Clinical measurements on hand-made landmark sets (naseview.measurements)."""
+"""Clinical measurements on hand-made landmark sets (naseview.measurements): distances,
+omission of missing inputs, the landmark-only profile."""
 
 from __future__ import annotations
 
@@ -55,10 +56,36 @@ def test_missing_landmarks_omit_keys() -> None:
         del lm[k]
     m = clinical_measurements(lm)
     for key in ("alar_base", "nasal_height", "nasal_index", "tip_projection", "goode_ratio",
-                "ac_l-ac_r", "int_l-ac_l", "c-sn", "dorsal_hump_depth"):
+                "ac_l-ac_r", "int_l-ac_l", "c-sn", "tip_rotation", "nasolabial_angle",
+                "crumley_ratio", "columellar_show", "intercanthal_width", "nostril_symmetry"):
         assert key not in m
     assert "nasal_width" in m and "nasofrontal_angle" in m
     assert clinical_measurements({}) == {}
+
+
+def test_landmark_profile_gives_the_hump_of_k_and_r() -> None:
+    """Without curves or mesh the profile is the polyline n-k-r-prn-c-sn: a kyphion 1.5 mm
+    in front of the n-prn line is a 1.5 mm hump; k and r behind it, no hump."""
+    lm = _nose()
+    m = clinical_measurements(lm)
+    assert m["dorsal_hump_depth"] == 0.0           # k, r of _nose() lie behind n-prn
+    u = (lm["prn"] - lm["n"]) / np.linalg.norm(lm["prn"] - lm["n"])
+    a = np.array([0.0, u[2], -u[1]])                # anterior normal of n-prn
+    lm["k"] = lm["n"] + 0.4 * (lm["prn"] - lm["n"]) + 1.5 * a
+    assert clinical_measurements(lm)["dorsal_hump_depth"] == pytest.approx(1.5)
+
+
+def test_degenerate_input_omits_and_never_raises() -> None:
+    same = {k: np.array([1.0, 2.0, 3.0]) for k in _nose()}
+    m = clinical_measurements(same, curves={"mid": np.zeros((3, 3)), "sill_l": np.zeros((4, 3)),
+                                            "sill_r": np.zeros((4, 3))},
+                              V=np.zeros((3, 3)), F=np.array([[0, 1, 2]]))
+    assert m["nasal_length"] == 0.0 and "nasal_index" not in m and "goode_ratio" not in m
+    assert all(np.isfinite(v) for v in m.values())
+    nan = dict(_nose(), prn=np.array([np.nan, 0.0, 0.0]))
+    assert "nasal_length" not in clinical_measurements(nan)
+    bad_faces = clinical_measurements(_nose(), V=np.zeros((3, 3)), F=np.array([[0, 1, 7]]))
+    assert bad_faces == clinical_measurements(_nose())
 
 
 def test_dorsal_hump_from_curve_and_from_mesh() -> None:

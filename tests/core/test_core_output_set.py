@@ -21,6 +21,7 @@ from naseview.cli import main
 from naseview.editing.baseline import Baseline, baseline_from_output_dir
 from naseview.errors import NaseviewError
 from naseview.fileio import write_file_set
+from naseview.measurements import clinical_measurements
 from naseview.pipeline import PipelineResult, write_outputs
 from naseview.reconstruction import Reconstruction
 
@@ -37,8 +38,11 @@ def _result(shift: float) -> PipelineResult:
     F = np.vstack([np.column_stack([a.ravel(), c.ravel(), b.ravel()]),
                    np.column_stack([b.ravel(), c.ravel(), d.ravel()])])
     nose = idx[1:4, 1:4].ravel()
-    rec = Reconstruction(landmarks={"g": np.zeros(3), "prn": np.array([2.0, 2.0, shift])},
-                         measurements={"n-prn": 40.0 + shift})
+    lms = {"g": np.zeros(3), "prn": np.array([2.0, 2.0, shift])}
+    # every measurement of today (as a reconstruction writes them), plus one that tells
+    # the runs apart
+    rec = Reconstruction(landmarks=lms, measurements={
+        **clinical_measurements(lms, None, V, F), "n-prn": 40.0 + shift})
     return PipelineResult(reconstruction=rec, face_vertices=V, faces=F, nose_vertex_ids=nose)
 
 

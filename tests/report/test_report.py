@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import base64
+import html
 import re
 from pathlib import Path
 
@@ -24,6 +25,7 @@ from naseview.report import (
     report_html,
     write_report,
 )
+from naseview.report.table import format_range
 from naseview.texture.bake import FaceTexture
 
 NOTE = "follow-up in March; PRIVATE-NOTE-7731"
@@ -94,24 +96,24 @@ def test_html_is_self_contained_with_disclaimer_and_measurements(data, tmp_path:
     assert not re.search(r"<script|<link|@import|url\(|src=['\"]https?:|href=['\"]https?:",
                          text, re.I)
     imgs = images_of(text)
-    assert len(imgs) == 4 + 4 + 4        # photos, renders before, renders after
+    assert len(imgs) == 4 + 3 + 3        # photos, renders before, renders after
     # measurements with values, change and typical ranges
     rows = {r["name"]: r for r in measurement_rows(data.measurements_before,
                                                     data.measurements_after)}
     for name in ("nasal_length", "nasal_width", "nasofrontal_angle", "goode_ratio"):
-        assert name in rows and f"<td>{rows[name]['title']}<br>" in text
+        assert name in rows and f"<b>{rows[name]['title']}</b>" in text
     ranged = [r for r in rows.values() if MEASUREMENT_INFO[r["name"]].normal]
     assert ranged
-    for r in ranged:                                                # typical ranges shown
-        lo, hi = MEASUREMENT_INFO[r["name"]].normal
-        assert f"{lo:g}–{hi:g}" in text
+    shown = html.unescape(text).replace("\xa0", " ")
+    for r in ranged:                                                # usual ranges shown
+        assert format_range(MEASUREMENT_INFO[r["name"]].normal, r["unit"]) in shown
     nl = rows["nasal_length"]
     assert f"{nl['before']:.1f} mm" in text and f"{nl['after']:.1f} mm" in text
     assert f"{nl['after'] - nl['before']:+.1f} mm" in text
     assert abs(nl["change"]) > 0.5                                  # the tip moved
     groups = [r["group"] for r in measurement_rows(data.measurements_before)]
     assert groups == sorted(groups)       # clinical measurements first, Table 1 after
-    assert text.index("<h2>Measurements</h2>") < text.index("Landmark distances")
+    assert text.index("<h2>Your measurements</h2>") < text.index("Technical appendix")
     assert NOTE in text and "case-42" in text
     for name in ("views", "measurements", "photos"):
         assert (tmp_path / f"report-{name}.png").read_bytes()[:4] == b"\x89PNG"
@@ -121,8 +123,8 @@ def test_html_is_self_contained_with_disclaimer_and_measurements(data, tmp_path:
 def test_renders_show_the_simulated_change(data):
     _, imgs = report_html(data, render_size=160)
     sheet = imgs["views"]
-    assert sheet.shape == (2 * 160, 4 * 160, 3)
-    before, after = sheet[:160].astype(int), sheet[160:].astype(int)
+    assert sheet.shape == (3 * 160, 2 * 160, 3)                      # a row per view
+    before, after = sheet[:, :160].astype(int), sheet[:, 160:].astype(int)
     assert before.std() > 10                                         # not blank
     assert np.abs(before - after).mean() > 0.5                       # the nose changed
 
@@ -131,7 +133,7 @@ def test_deidentified_version_has_no_photo_and_no_notes(data, tmp_path: Path):
     path = write_report(data, tmp_path / "anon.html", deidentified=True, render_size=160)
     text = path.read_text(encoding="utf-8")
     assert DISCLAIMER in text and "de-identified" in text
-    assert len(images_of(text)) == 8                                 # renders only
+    assert len(images_of(text)) == 6                                 # renders only
     assert "photo" not in " ".join(re.findall(r"alt='([^']*)'", text))
     assert NOTE not in text and "PRIVATE-NOTE" not in text
     assert not (tmp_path / "anon-photos.png").exists()
@@ -145,8 +147,8 @@ def test_before_only_report_and_bad_name(data, tmp_path: Path):
     only = ReportData(data.case_id, data.V_before, data.F, data.nose_ids,
                       data.measurements_before)
     text, imgs = report_html(only, render_size=120)
-    assert len(images_of(text)) == 4 and "<th>After</th>" not in text
-    assert imgs["views"].shape[0] == 120
+    assert len(images_of(text)) == 3 and "<th>After</th>" not in text
+    assert imgs["views"].shape[:2] == (3 * 120, 120)
     with pytest.raises(NaseviewError, match=r"\.html"):
         write_report(only, tmp_path / "report.pdf")
 
@@ -155,7 +157,7 @@ def test_report_command_from_a_session_file(data, tmp_path: Path):
     V, F, nose, lms = height_field_face()
     base = Baseline(V, F, nose, lms, measurements=clinical_measurements(lms))
 
-    def solver(landmarks, interactive=False):
+    def solver(landmarks, interactive=False, **kwargs):
         Vn = V.copy()
         d = np.asarray(landmarks["prn"]) - lms["prn"]
         w = np.exp(-np.sum((V - lms["prn"]) ** 2, axis=1) / 72.0)
@@ -165,6 +167,7 @@ def test_report_command_from_a_session_file(data, tmp_path: Path):
     ctl = EditController(base, solver)
     try:
         ctl.move_landmarks({"prn": lms["prn"] + np.array([0.0, 2.0, -2.0])})
+        ctl.set_manoeuvres({"hump_reduction": 1.5})
         assert ctl.wait_idle(20)
         save_session(tmp_path / "s.json", ctl, {"case_id": "case-77"})
     finally:
@@ -174,6 +177,7 @@ def test_report_command_from_a_session_file(data, tmp_path: Path):
     assert report_command(args) == 0
     text = (tmp_path / "r.html").read_text()
     assert "case-77" in text and "<th>After</th>" in text and DISCLAIMER in text
+    assert "Lower the bump on the bridge of the nose by 1.5 mm" in text   # the plan
     with pytest.raises(NaseviewError, match="session file"):
         report_command(argparse.Namespace(path=tmp_path, output=None, deidentified=False,
                                           case=None))
@@ -202,5 +206,5 @@ def test_renders_show_the_patient_skin_but_never_in_the_deidentified_report(data
     _, anon = report_html(skinned, deidentified=True, render_size=120)
     assert _green_share(plain["views"]) == 0.0
     assert _green_share(textured["views"]) > 0.2               # before and after, skinned
-    assert _green_share(textured["views"][120:]) > 0.1         # the simulated face too
+    assert _green_share(textured["views"][:, 120:]) > 0.1      # the simulated face too
     assert _green_share(anon["views"]) == 0.0

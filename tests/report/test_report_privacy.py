@@ -81,7 +81,8 @@ def test_the_deidentified_report_names_no_id_no_date_and_no_path(patient: Path):
     assert main(["report", str(out), "--deidentified"]) == 0
     assert main(["report", str(out)]) == 0                 # the full report, for contrast
     full = (out / "report.html").read_bytes()
-    assert OUT_FOLDER.encode() in full and DATE.search(full)   # the full one does name them
+    assert CASE_ID.encode() in full and DATE.search(full)      # the full one does name them
+    assert OUT_FOLDER.encode() not in full                     # the case id, not the folder
     assert (out / "report-photos.png").is_file()
     written = sorted(p for p in out.iterdir() if "deidentified" in p.name)
     assert [p.name for p in written] == ["report-deidentified-measurements.png",
@@ -167,3 +168,25 @@ def test_a_report_on_a_full_disk_keeps_the_earlier_report(tmp_path: Path, monkey
     with pytest.raises(NaseviewError, match="disk is full.*unchanged"):
         write_report(ReportData("B", V + 1.0, F, nose, m), first, render_size=64)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
+def test_the_cli_names_surgeon_clinic_patient_and_prints_a_clean_deidentified_pdf(
+        patient: Path):
+    from test_report_pdf import chromium_or_fail
+    out = patient / OUT_FOLDER
+    who = ["--surgeon", "Dr Zed Surgeon", "--clinic", "Clinic Quux",
+           "--patient-name", "Jane Doe"]
+    assert main(["report", str(out), *who, "-o", str(out / "named.html")]) == 0
+    full = (out / "named.html").read_text(encoding="utf-8")
+    assert "<title>Nose consultation report — Jane Doe</title>" in full
+    assert "Dr Zed Surgeon" in full and "Clinic Quux" in full and CASE_ID in full
+    assert "seen on 2024-03-05" in full                    # the notes a person typed
+    chromium_or_fail()
+    assert main(["report", str(out), "--deidentified", "--pdf", *who,
+                 "-o", str(out / "anon-cli.html")]) == 0
+    pdf = (out / "anon-cli.pdf").read_bytes()             # beside the HTML
+    assert pdf[:5] == b"%PDF-"
+    # the page text is the checked HTML's; here the PDF's own plain parts (title, info)
+    for needle in ("Zed", "Quux", "Doe", CASE_ID, OUT_FOLDER, str(patient)):
+        assert needle.encode() not in pdf, needle
+    assert not DATE.search(pdf) and not re.search(rb"/CreationDate\s*\(D:\d", pdf)

@@ -1,0 +1,172 @@
+"""A reconstruction's manoeuvre fields, precomputed once and applied many times.
+
+:class:`ManoeuvrePlan` evaluates every field of :mod:`.dorsum`, :mod:`.tip`,
+:mod:`.alar_base` and :mod:`.columella` on the rest shape (the reconstruction) once:
+per translation its unit field ``U_m`` (displacement per mm), for the tip rotation its
+weight, pivot and axis. Applying amounts is then a weighted sum over each field's support::
+
+    D(amounts) = sum_m amount_m * U_m                     (translations: linear)
+               + w * (R_theta (p - c) - (p - c))          (tip rotation by theta degrees)
+
+Every field is defined on the rest positions, so the fields add: ``D`` is exactly
+commutative, undoable (amounts back to 0 give exactly 0) and the translations are linear
+in their amounts. A landmark moves with the surface under it: it is attached to its
+closest triangle (barycentric coordinates) on the rest shape and takes the barycentric
+mean of the corners' displacements (:meth:`ManoeuvrePlan.landmark_offsets`), so it stays
+on the displaced surface.
+
+The fields fade to zero within the nose's own size; the alar base and radix fields fade
+into the cheek and the glabella, which the model's nose region may not reach:
+:attr:`ManoeuvrePlan.region_ids` (the nose region plus those fade bands) are the vertices
+that can move.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import igl
+import numpy as np
+
+from naseview.editing.manoeuvres.alar_base import alar_base_field
+from naseview.editing.manoeuvres.columella import columella_setback_field
+from naseview.editing.manoeuvres.dorsum import hump_reduction_field, radix_augmentation_field
+from naseview.editing.manoeuvres.frame import NasalFrame, nasal_frame
+from naseview.editing.manoeuvres.info import MANOEUVRES, check_amounts
+from naseview.editing.manoeuvres.tip import (
+    rotation_matrix,
+    tip_narrowing_field,
+    tip_projection_field,
+    tip_rotation_pivot,
+    tip_rotation_weight,
+)
+
+NEEDS: dict[str, tuple[str, ...]] = {
+    "hump_reduction": ("n", "prn"),
+    "radix_augmentation": ("n", "prn"),
+    "tip_projection": ("n", "prn"),
+    "tip_rotation": ("n", "prn", "ac_l", "ac_r"),
+    "tip_narrowing": ("n", "prn", "md_l", "md_r"),
+    "alar_base_narrowing": ("n", "prn", "al_l", "ac_l", "al_r", "ac_r"),
+    "columella_setback": ("n", "prn", "c", "sn"),
+}
+"""The landmarks each manoeuvre needs."""
+
+SUPPORT_EPS = 1e-12
+"""Weights at or below this are outside a field's support."""
+
+
+class ManoeuvrePlan:
+    """The manoeuvre fields of one reconstruction (module docstring).
+
+    Args:
+        V: (N, 3) rest vertices (the reconstruction), mm. F: (M, 3) int triangles.
+        nose_ids: (K,) vertices of the nose region.
+        landmarks: id -> (3,) rest positions, mm.
+        curves: SPEC §5 curves; ``"mid"`` (on the surface) joins the mesh's midline
+            section as the dorsal profile of the hump reduction.
+
+    Attributes:
+        available: the manoeuvres this reconstruction supports (their landmarks present),
+            in :data:`MANOEUVRES` order.
+        region_ids: (R,) sorted vertices any manoeuvre can move (the nose region plus the
+            fade bands into the cheek, lip and glabella).
+        frame: the :class:`NasalFrame`, or None without n and prn.
+    """
+
+    def __init__(self, V: np.ndarray, F: np.ndarray, nose_ids: np.ndarray,
+                 landmarks: Mapping[str, np.ndarray],
+                 curves: Mapping[str, np.ndarray] | None = None) -> None:
+        self.V = np.asarray(V, np.float64)
+        self.F = np.asarray(F, np.int64)
+        self.nose_ids = np.asarray(nose_ids, np.int64)
+        self._lm_ids = [k for k, p in landmarks.items()
+                        if np.all(np.isfinite(np.asarray(p, np.float64)))]
+        self._lm = np.array([np.asarray(landmarks[k], np.float64).reshape(3)
+                             for k in self._lm_ids]).reshape(-1, 3)
+        self.frame: NasalFrame | None = nasal_frame(landmarks)
+        fr = self.frame
+        self.available: tuple[str, ...] = () if fr is None else tuple(
+            m for m in MANOEUVRES if fr.has(*NEEDS[m]))
+        self._fields: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        self._rotation: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        P = self.V
+        mid = None if curves is None else curves.get("mid")
+        mid = None if mid is None else np.asarray(mid, np.float64).reshape(-1, 3)
+        builders: dict[str, Callable[[NasalFrame, np.ndarray], np.ndarray]] = {
+            "hump_reduction": lambda f, X: hump_reduction_field(f, X, self.V, self.F, mid),
+            "radix_augmentation": radix_augmentation_field,
+            "tip_projection": tip_projection_field,
+            "tip_narrowing": tip_narrowing_field,
+            "alar_base_narrowing": alar_base_field,
+            "columella_setback": columella_setback_field,
+        }
+        support = [self.nose_ids]
+        for m in self.available:
+            assert fr is not None
+            if m == "tip_rotation":
+                w = tip_rotation_weight(fr, P)
+                pivot, axis = tip_rotation_pivot(fr)
+                idx = np.flatnonzero(w > SUPPORT_EPS)
+                self._rotation = (idx, w[idx], self.V[idx] - pivot, axis)
+            else:
+                U = builders[m](fr, P)
+                idx = np.flatnonzero(np.abs(U).max(axis=1) > SUPPORT_EPS)
+                self._fields[m] = (idx, U[idx])
+            support.append(idx)
+        self.region_ids: np.ndarray = np.unique(np.concatenate(support)).astype(np.int64)
+        self._attach_landmarks()
+
+    def _attach_landmarks(self) -> None:
+        """Each landmark's closest triangle corners (K, 3) and barycentric weights (K, 3)."""
+        if len(self._lm) == 0 or len(self.F) == 0:
+            self._lm_corners = np.zeros((len(self._lm), 3), np.int64)
+            self._lm_bary = np.zeros((len(self._lm), 3))
+            return
+        P = np.ascontiguousarray(self._lm)
+        V = np.ascontiguousarray(self.V)
+        F = np.ascontiguousarray(self.F)
+        _, fid, C = igl.point_mesh_squared_distance(P, V, F)
+        fid = np.asarray(fid, np.int64).ravel()
+        corners = F[fid]
+        C = np.ascontiguousarray(np.asarray(C, np.float64).reshape(-1, 3))
+        A, B, Cc = (np.ascontiguousarray(V[corners[:, k]]) for k in range(3))
+        self._lm_corners = corners
+        self._lm_bary = np.asarray(igl.barycentric_coordinates(C, A, B, Cc), np.float64)
+
+    def displacement(self, amounts: Mapping[str, float]) -> np.ndarray:
+        """(N, 3) mm displacement of the vertices for ``amounts`` (name -> mm / degrees,
+        :func:`check_amounts`); zero rows outside :attr:`region_ids`, exactly zero for an
+        empty mapping; manoeuvres not in :attr:`available` are skipped.
+
+        Raises:
+            NaseviewError: an unknown manoeuvre or an amount outside its range.
+        """
+        D = np.zeros_like(self.V)
+        for m, x in _ordered(amounts):
+            if m in self._fields:
+                idx, U = self._fields[m]
+                D[idx] += x * U
+            elif m == "tip_rotation" and self._rotation is not None:
+                idx, w, rel, axis = self._rotation
+                D[idx] += w[:, None] * (rel @ (rotation_matrix(axis, x) - np.eye(3)).T)
+        return D
+
+    def landmark_offsets(self, amounts: Mapping[str, float]) -> dict[str, np.ndarray]:
+        """Landmark id -> (3,) mm displacement by ``amounts``: the barycentric mean of the
+        displacements of its closest rest triangle's corners (so a landmark on the
+        surface stays on the displaced surface; one on a vertex moves with it exactly).
+
+        Raises:
+            NaseviewError: an unknown manoeuvre or an amount outside its range.
+        """
+        D = self.displacement(amounts)
+        off = np.einsum("kc,kcd->kd", self._lm_bary, D[self._lm_corners])
+        return {k: off[i].copy() for i, k in enumerate(self._lm_ids)}
+
+
+def _ordered(amounts: Mapping[str, float]) -> list[tuple[str, float]]:
+    """The checked non-zero amounts in :data:`MANOEUVRES` order (so that the sum is the
+    same, bit for bit, whatever the mapping's order)."""
+    got = check_amounts(dict(amounts), "manoeuvres")
+    return [(m, got[m]) for m in MANOEUVRES if m in got]
