@@ -174,3 +174,16 @@ def test_columella_setback_lowers_the_columellar_show(baseline):
     show = [solver(baseline.landmarks, manoeuvres={"columella_setback": a} if a else None)
             .measurements["columellar_show"] for a in (0.0, 2.0, 4.0)]
     assert show[0] > show[1] > show[2]
+
+
+def test_alar_base_narrowing_leaves_the_tip_lobule_alone(baseline):
+    solver = NoseEditSolver(baseline)
+    off = solver.plan.landmark_offsets({"alar_base_narrowing": 4.0})
+    lms = {k: baseline.landmarks[k] + off.get(k, 0.0) for k in baseline.landmarks}
+
+    def width(a: str, b: str, p: dict) -> float:
+        return float(np.linalg.norm(p[a] - p[b]))
+
+    assert width("al_l", "al_r", baseline.landmarks) - width("al_l", "al_r", lms) \
+        == pytest.approx(8.0, abs=0.1)                    # 4 mm each side
+    assert abs(width("md_l", "md_r", baseline.landmarks) - width("md_l", "md_r", lms)) < 1.0

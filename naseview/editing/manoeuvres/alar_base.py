@@ -10,7 +10,9 @@ ac, and ``m`` the mean of al, ac, alpp::
     w_x(xi) = smoothstep(xi / x_sill)                          (0 on the midline)
               * fade(xi, x_ala + 0.03 W, x_ala + 0.38 W)         (fades into the cheek)
     w_v(p)  = fade(|P_ua (p - m)|, r_ala, r_ala + 0.3 W)          (the lip, the sidewall)
+              * fade(p_z - z_front, 0.05 W, 0.25 W)                 (the tip lobule stays)
 
+``z_front`` is the largest z of al, ac, alpp (the lobule lies in front of it).
 ``P_ua`` keeps the components along ``u`` and ``a`` (the sagittal plane), ``r_ala`` is the
 largest such distance from ``m`` to al, ac and alpp plus 0.03 W: weight 1 on the whole ala,
 the alar crease (ac, al), the alar groove and the sill, so the crease moves with the ala
@@ -33,6 +35,11 @@ from naseview.editing.manoeuvres.frame import NasalFrame, fade, smoothstep
 MIN_RAMP = 0.6
 """The medial ramp spans at least this fraction of the ala's lateral offset (a medial
 sill would otherwise crush the nostril floor)."""
+
+TIP_FADE = (0.05, 0.25)
+"""In front (+z) of the most anterior of al, ac, alpp the field fades between these
+distances (fractions of the alar width ``W``, about 2 and 9 mm), so the tip lobule and
+its domes (md) stay where they are: narrowing the alar base is not narrowing the tip."""
 
 ALAR_IDS = ("al", "ac")
 """Landmarks (per side, ``_l`` / ``_r``) an alar base narrowing needs."""
@@ -62,5 +69,7 @@ def alar_base_field(frame: NasalFrame, P: np.ndarray) -> np.ndarray:
         r_ala = float(np.linalg.norm((pts_a - m) @ ua.T, axis=1).max()) + 0.03 * W
         d = np.linalg.norm((X - m) @ ua.T, axis=1)
         w = w_x * fade(d, r_ala, r_ala + 0.3 * W)
+        front = float(pts_a[:, 2].max())   # the most anterior of al, ac, alpp
+        w = w * fade(X[:, 2] - front, TIP_FADE[0] * W, TIP_FADE[1] * W)   # the lobule stays
         out += (-sign * w)[:, None] * frame.e[None, :]
     return out
