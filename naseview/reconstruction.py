@@ -174,8 +174,10 @@ def points_array(value: object, where: str, key: str, count: int | None = None
             naming ``where`` and ``key``.
     """
     try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
+        raw = np.asarray(value)        # numbers only: "1" or true are not coordinates
+        arr = np.asarray(raw, dtype=np.float64) if raw.dtype.kind in "iuf" \
+            else np.zeros((0, 0))
+    except (TypeError, ValueError, OverflowError):
         arr = np.zeros((0, 0))
     if arr.size == 0 and isinstance(value, list) and not value:
         arr = np.zeros((0, 3))

@@ -124,6 +124,8 @@ def test_the_plan_is_saved_and_reopens_exactly(baseline, tmp_path):
     ({"history_manoeuvres": [{"tip_projection": 4}]}, "history_manoeuvres.0"),
     ({"manoeuvres": False}, "manoeuvres"),
     ({"manoeuvres": {"tip_rotation": 10 ** 400}}, "tip_rotation"),
+    ({"landmarks": {"prn": ["1", "2", "3"]}}, "edit.landmarks.prn"),
+    ({"landmarks": {"prn": [True, True, True]}}, "edit.landmarks.prn"),
 ])
 def test_hand_edited_plans_give_one_line_naming_the_key(baseline, tmp_path, edit, key):
     ctl = EditController(baseline, None)
