@@ -26,7 +26,7 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
 
 
 def _demo() -> Baseline:
-    """The demo case reconstructed (generic face)."""
+    """The demo case reconstructed (the default face model: ICT in the tests)."""
     return baseline_from_output_dir(demo_output_dir())
 
 

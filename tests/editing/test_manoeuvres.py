@@ -1,6 +1,6 @@
 """Surgical manoeuvres as displacement fields, on the ICT mean face and on the demo
-reconstruction (generic face model): each moves its landmark by its amount, stays in its
-region, never folds the mesh, and the fields add."""
+reconstruction (the default face model, ICT in the tests): each moves its landmark by its
+amount, stays in its region, never folds the mesh, and the fields add."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ FACES = ("ict", "demo")
 
 
 def _demo_baseline() -> Baseline:
-    """The bundled demo case reconstructed (generic face model), once per process."""
+    """The bundled demo case reconstructed (default face model: ICT in the tests)."""
     return baseline_from_output_dir(demo_output_dir())
 
 
