@@ -53,19 +53,32 @@ def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
             canvas = page.locator("canvas").first
             box = canvas.bounding_box()
             assert box is not None
-            time.sleep(1.0)
             shot = tmp_path / "page.png"
-            page.screenshot(path=str(shot))
-            img = cv2.imread(str(shot))
             cam = client.camera
             sx = box["width"] / cam.image_width
             sy = box["height"] / cam.image_height
             base = app.controller.baseline
             uv = project_to_view(cam, base.V[base.nose_ids].mean(0))
             cx, cy = int(box["x"] + uv[0] * sx), int(box["y"] + uv[1] * sy)
-            crop = img[max(0, cy - 60):cy + 60, max(0, cx - 60):cx + 60].astype(float)
+
+            def crops() -> tuple[np.ndarray, np.ndarray]:
+                """(nose area, top-left corner) of a fresh screenshot."""
+                page.screenshot(path=str(shot))
+                img = cv2.imread(str(shot))
+                return (img[max(0, cy - 60):cy + 60, max(0, cx - 60):cx + 60].astype(float),
+                        img[5:40, 5:40].astype(float))
+
+            def face_drawn() -> bool:
+                crop, corner = crops()
+                return bool(crop.size and crop.std() > 6.0
+                            and (abs(crop.mean() - corner.mean()) > 5.0 or crop.std() > 15.0))
+
+            # software WebGL draws the face a moment after the camera is set: wait for it
+            end = time.monotonic() + 20.0
+            while not face_drawn() and time.monotonic() < end:
+                time.sleep(0.5)
+            crop, corner = crops()
             assert crop.size and crop.std() > 6.0, "the mesh area is blank"
-            corner = img[5:40, 5:40].astype(float)
             assert abs(crop.mean() - corner.mean()) > 5.0 or crop.std() > 15.0
 
             # drag prn upwards with real mouse events
