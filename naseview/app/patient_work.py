@@ -317,24 +317,25 @@ class PatientWork:
                 f"kept in {where}")
 
     def _changed(self) -> None:
-        for fn in list(self.on_change):
-            try:
-                fn()
-            except Exception:
-                log.debug("naseview: a patient-work listener failed", exc_info=True)
+        _call_each(self.on_change, "patient-work")
 
     def _listed(self) -> None:
-        for fn in list(self.on_list):
-            try:
-                fn()
-            except Exception:
-                log.debug("naseview: a patient-list listener failed", exc_info=True)
+        _call_each(self.on_list, "patient-list")
 
     def close(self) -> None:
         """Write and stop every autosave (server shutdown)."""
         with self._lock:
             self._stop_autosave()
         self.records.close()
+
+
+def _call_each(listeners: list[Callable[[], None]], what: str) -> None:
+    """Call every listener; one that fails is logged and never stops the others."""
+    for fn in list(listeners):
+        try:
+            fn()
+        except Exception:
+            log.debug("naseview: a %s listener failed", what, exc_info=True)
 
 
 __all__ = ["AppState", "OpenPlan", "PatientWork", "clock"]

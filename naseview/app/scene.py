@@ -519,10 +519,7 @@ class FaceScene:
     def _shown(self, lms: Landmarks) -> Landmarks:
         """Where landmarks at ``lms`` (controller positions) are drawn: plus the
         manoeuvres' offset of each in the last published simulation."""
-        sim = self.ctl.simulation
-        if sim.surface_landmarks is None:
-            return lms
-        return {k: p + sim.landmark_offset(k) for k, p in lms.items()}
+        return self.ctl.simulation.drawn(lms)
 
     def _highlight(self, lid: str | None) -> None:
         if self.spheres is None:

@@ -771,10 +771,7 @@ class NaseviewApp:
             return f"{name}-{part}-{state}.{fmt}", self._mesh_export(ctl, fmt, part, state)
         if kind == "landmarks":
             base = ctl.baseline
-            sim = ctl.simulation
-            lms = ctl.landmarks                 # where the simulation's surface puts them
-            lms = {k: p + sim.landmark_offset(k) for k, p in lms.items()} \
-                if sim.landmarks.keys() == lms.keys() else lms
+            lms = ctl.simulation.drawn(ctl.landmarks)   # on the simulated surface
             data = (landmarks_json(lms, base.landmarks, self.case_id) if fmt == "json"
                     else landmarks_csv(lms, base.landmarks))
             return f"{name}-landmarks.{fmt}", data

@@ -234,6 +234,14 @@ class Simulation:
         else at the requested positions."""
         return {**self.landmarks, **(self.surface_landmarks or {})}
 
+    def drawn(self, landmarks: Mapping[str, np.ndarray]) -> Landmarks:
+        """Where landmarks at ``landmarks`` (controller positions, id -> (3,) mm) are
+        drawn on this simulation's surface: each plus its :meth:`landmark_offset`."""
+        if self.surface_landmarks is None:
+            return dict(landmarks)
+        return {k: np.asarray(p, np.float64) + self.landmark_offset(k)
+                for k, p in landmarks.items()}
+
     def landmark_offset(self, landmark: str) -> np.ndarray:
         """(3,) mm from a landmark's requested position to where it is drawn (the
         manoeuvres' displacement of it; zeros without manoeuvres)."""

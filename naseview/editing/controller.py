@@ -56,14 +56,12 @@ MIRROR = np.array([-1.0, 1.0, 1.0])
 @dataclass
 class _Entry:
     """One undo entry: landmarks and manoeuvres, the request revision that shows them, its
-    cached solve, and ``tag`` (the manoeuvre whose control made it, so that a slider moved
-    in one go stays one entry)."""
+    cached solve."""
 
     landmarks: Landmarks
     revision: int
     sim: Simulation | None = None
     manoeuvres: Manoeuvres = field(default_factory=dict)
-    tag: str | None = None
 
 
 @dataclass
@@ -124,8 +122,9 @@ class EditController:
         self._landmarks = copy_landmarks(baseline.landmarks)
         self._manoeuvres: Manoeuvres = {}
         self._last_tag: str | None = None
-        """The manoeuvre the last edit set (its next change joins that undo entry); any
-        other edit, undo, redo or reset clears it."""
+        """The manoeuvre whose control made the newest undo entry, while that entry is
+        current and nothing else was edited (its next change joins that entry); any other
+        edit, undo, redo or reset clears it."""
         self._history: list[_Entry] = [_Entry(copy_landmarks(baseline.landmarks), 0, base)]
         self._index = 0
         self._history_limit = max(2, int(history_limit))
@@ -294,18 +293,18 @@ class EditController:
             self._manoeuvres = new
             self._submit_locked()
             top = self._history[self._index]
-            coalesce = top.tag == name and self._last_tag == name \
-                and self._index == len(self._history) - 1 and self._index > 0
+            coalesce = self._last_tag == name and self._index == len(self._history) - 1 \
+                and self._index > 0
             if coalesce and _same_state(self._history[self._index - 1], self._landmarks, new):
-                del self._history[self._index]
+                del self._history[self._index]       # back where the slide started
                 self._index -= 1
+                self._last_tag = None
             elif coalesce:
                 top.manoeuvres = dict(new)
                 top.revision = self._rev
                 top.sim = None
             else:
                 self._push_locked(tag=name)
-            self._last_tag = name
         self._notify(self.on_history)
 
     def set_manoeuvres(self, amounts: Mapping[str, float]) -> None:
@@ -559,7 +558,7 @@ class EditController:
     def _push_locked(self, tag: str | None = None) -> None:
         self._truncate_redo_locked()
         entry = _Entry(copy_landmarks(self._landmarks), self._rev,
-                       manoeuvres=dict(self._manoeuvres), tag=tag)
+                       manoeuvres=dict(self._manoeuvres))
         self._last_tag = tag
         p = self._published
         if p.revision == self._rev and p.generation == self._generation \

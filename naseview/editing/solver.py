@@ -215,9 +215,7 @@ class NoseEditSolver:
         solve is reused while the landmarks stay the same (a manoeuvre change)."""
         last = self._last
         if last is not None and not interactive and not last[1] \
-                and landmarks_equal(last[0], {k: np.asarray(landmarks[k], np.float64)
-                                              for k in last[0]}) \
-                and landmarks.keys() == last[0].keys():
+                and landmarks_equal(last[0], landmarks):
             return last[2], last[3]
         H = self._base_handles.copy()
         for i, k in enumerate(self.editable):
