@@ -2,14 +2,22 @@
 
 **One-bad-click sweep.** On generic synthetic cases (``naseview synth --model generic``,
 1024 px, 1.5 px click noise), every landmark clicked in 3+ photos has, in turn, one of its
-clicks moved by ``--px`` (15 and 30 px) in two directions (image right, image down), one
-trial per landmark x photo x direction. Each trial is counted as
+clicks moved by ``--px`` (15 and 30 px) in two directions (image right, image down; or
+``--directions down-right,up-right``), one trial per landmark x photo x direction. Each
+trial is counted as
 
 - correct: that click is blamed (a suspect click naming that landmark and photo alone),
   and no other click is left out;
 - wrong: another click is left out, or another photo alone is blamed for the landmark;
 - ambiguous: the landmark is flagged, but the photos disagree and none is pinned;
 - unflagged: nothing names the click.
+
+On the standard rig the image axes are the epipolar directions (front-left and
+front-right pairs share the horizontal, front-bottom the vertical), so most axis moves
+slide a click along the epipolar line of another photo: that pair still agrees, and with
+three photos two re-solves fit every click equally well; only the symmetry prior can then
+pick the wrong click. The table counts those trials (``along epi``: within 15 degrees of
+such a line) and the correct blame among the rest (``correct off-epi``).
 
 It also prints the worst landmark error (mm, after rigid alignment to the clean-click
 solve) and how many trials leave a landmark more than 1 mm from its clean-click position
@@ -46,7 +54,13 @@ from naseview.stage1_landmarks.plausibility import px_per_mm
 from naseview.testbed.evaluate import landmark_rmse_case, table1_case
 from naseview.testbed.synth import synthesize_case
 
-DIRECTIONS = {"right": np.array([1.0, 0.0]), "down": np.array([0.0, 1.0])}
+DIRECTIONS = {"right": np.array([1.0, 0.0]), "down": np.array([0.0, 1.0]),
+              "down-right": np.array([1.0, 1.0]) / np.sqrt(2.0),
+              "up-right": np.array([1.0, -1.0]) / np.sqrt(2.0)}
+"""Directions a click is moved in (image x right, y down); the default sweep takes the
+first two, which on the standard rig lie along the epipolar lines (see ``epipolar_angle``)."""
+EPIPOLAR_DEG = 15.0
+"""A move within this angle of an epipolar line of its photo counts as 'along' one."""
 TARGET_15 = 0.98
 MOVE_LIMIT_MM = 1.0
 
@@ -90,8 +104,36 @@ def named(res: SfmResult, lid: str) -> bool:
     return any(f"'{lid}'" in w for w in res.warnings)
 
 
-def click_sweep(dirs: list[Path], px: float) -> dict[str, object]:
+def epipolar_angle(clean: SfmResult, case: Case, view: str, lid: str,
+                   dvec: np.ndarray) -> float:
+    """Smallest angle (degrees) between the move ``dvec`` (2,) of the click ``lid`` in
+    ``view`` and the epipolar lines there of the landmark's other photos (the image in
+    ``view`` of another photo's line of sight through its click, clean-click cameras).
+
+    A move along such a line leaves that photo pair consistent: with three photos, the
+    two re-solves without the moved click and without the third photo's both fit every
+    click, and only priors (symmetry) can say which click was wrong."""
+    cam = clean.cameras[view]
+    X = clean.landmarks[lid]
+    best = 90.0
+    for other, v in case.views.items():
+        if other == view or lid not in v.landmarks or other not in clean.cameras:
+            continue
+        oc = clean.cameras[other]
+        C = oc.center
+        d = X - C
+        uv = cam.project(np.stack([C + 0.9 * d, C + 1.1 * d]))
+        e = uv[1] - uv[0]
+        if np.linalg.norm(e) < 1e-9:
+            continue
+        c = abs(float(e @ dvec)) / float(np.linalg.norm(e) * np.linalg.norm(dvec))
+        best = min(best, float(np.degrees(np.arccos(min(1.0, c)))))
+    return best
+
+
+def click_sweep(dirs: list[Path], px: float, directions: list[str]) -> dict[str, object]:
     counts: Counter[str] = Counter()
+    along: Counter[str] = Counter()
     worst, silent, worst_silent = 0.0, 0, 0.0
     failures: list[str] = []
     for d in dirs:
@@ -102,7 +144,8 @@ def click_sweep(dirs: list[Path], px: float) -> dict[str, object]:
             if len(seen) < 3:
                 continue
             for view in seen:
-                for dname, dvec in DIRECTIONS.items():
+                for dname in directions:
+                    dvec = DIRECTIONS[dname]
                     bad = with_click(case, view, lid,
                                      case.views[view].landmarks[lid] + px * dvec)
                     try:
@@ -113,6 +156,8 @@ def click_sweep(dirs: list[Path], px: float) -> dict[str, object]:
                         continue
                     kind = classify(res, view, lid)
                     counts[kind] += 1
+                    if epipolar_angle(clean, case, view, lid, dvec) <= EPIPOLAR_DEG:
+                        along[kind] += 1
                     if kind != "correct":
                         failures.append(f"{d.name} {lid}@{view} {dname}: {kind}; "
                                         f"{res.warnings[:2]}")
@@ -125,7 +170,7 @@ def click_sweep(dirs: list[Path], px: float) -> dict[str, object]:
                         failures.append(f"{d.name} {lid}@{view} {dname}: moved unnamed "
                                         + ", ".join(f"{k} {m:.2f} mm" for k, m in quiet.items()))
     n = sum(counts.values())
-    return {"n": n, "counts": counts, "worst": worst, "silent": silent,
+    return {"n": n, "counts": counts, "along": along, "worst": worst, "silent": silent,
             "worst_silent": worst_silent, "failures": failures}
 
 
@@ -162,30 +207,46 @@ def resolution_sweep(root: Path, seeds: list[int], sizes: list[int]) -> list[dic
     return rows
 
 
+def _off(counts: Counter[str], along: Counter[str], kind: str) -> str:
+    """``k/n (p %)``: trials of ``kind`` among those whose move is off every epipolar
+    line (where the clicks alone can tell which one is wrong)."""
+    n = sum(counts.values()) - sum(along.values())
+    k = counts[kind] - along[kind]
+    return f"{k}/{n} ({100.0 * k / n:.0f} %)" if n else "-"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="1,2", help="synthetic case seeds")
     ap.add_argument("--px", default="15,30", help="bad-click offsets, px")
     ap.add_argument("--sizes", default="1024,768,640,512,256,200,120", help="photo sizes, px")
+    ap.add_argument("--directions", default="right,down",
+                    help=f"click move directions, of {','.join(DIRECTIONS)}")
     ap.add_argument("--no-resolution", action="store_true")
     ap.add_argument("--verbose", action="store_true", help="list every trial not correct")
     ap.add_argument("--data", type=Path,
                     default=Path(tempfile.gettempdir()) / "naseview-bench-clicks")
     args = ap.parse_args(argv)
+    directions = args.directions.split(",")
+    if not set(directions) <= set(DIRECTIONS):
+        ap.error(f"--directions: each of {', '.join(DIRECTIONS)}")
     seeds = [int(s) for s in args.seeds.split(",")]
     dirs = [ensure_case(args.data / "size-1024" / f"case-{s:03d}", s, 1024) for s in seeds]
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"One bad click, generic synthetic cases (seeds {args.seeds}), 1024 px; load "
-          f"average {load:.1f}")
+          f"average {load:.1f}; directions {args.directions}")
     print(f"{'px':>4} {'trials':>6} {'correct':>8} {'wrong':>6} {'ambig':>6} {'unflag':>7} "
-          f"{'error':>6} {'worst mm':>9} {'>1mm unnamed':>13}")
+          f"{'error':>6} {'worst mm':>9} {'>1mm unnamed':>13} {'along epi':>10} "
+          f"{'ambig along':>12} {'correct off-epi':>16}")
     ok = True
     for px in [float(p) for p in args.px.split(",")]:
-        r = click_sweep(dirs, px)
-        c = r["counts"]
-        assert isinstance(c, Counter)
+        r = click_sweep(dirs, px, directions)
+        c, a = r["counts"], r["along"]
+        assert isinstance(c, Counter) and isinstance(a, Counter)
         print(f"{px:>4g} {r['n']:>6} {c['correct']:>8} {c['wrong']:>6} {c['ambiguous']:>6} "
-              f"{c['unflagged']:>7} {c['error']:>6} {r['worst']:>9.2f} {r['silent']:>13}")
+              f"{c['unflagged']:>7} {c['error']:>6} {r['worst']:>9.2f} {r['silent']:>13} "
+              f"{sum(a.values()):>10} {a['ambiguous']:>12} "
+              f"{_off(c, a, 'correct'):>16}")
         frac = c["correct"] / max(1, int(r["n"]))  # type: ignore[call-overload]
         need = TARGET_15 if px < 30 else 1.0
         ok &= frac >= need and c["wrong"] == 0 and r["silent"] == 0
@@ -195,6 +256,9 @@ def main(argv: list[str] | None = None) -> int:
     print("targets: 15 px >= 98 % correct, 0 wrong; 30 px 100 % correct; no landmark "
           f"> {MOVE_LIMIT_MM:g} mm from its clean-click position unnamed: "
           f"{'PASS' if ok else 'FAIL'}")
+    print(f"along epi: trials whose move lies within {EPIPOLAR_DEG:g} deg of an epipolar line "
+          "of its photo (only priors can then tell which click is wrong); ambig along: of "
+          "those, the ambiguous ones; correct off-epi: correct blame among the others")
     if not args.no_resolution:
         rows = resolution_sweep(args.data, seeds, [int(s) for s in args.sizes.split(",")])
         print("\nPhoto resolution (same cases, 1.5 px click noise; px/mm: the mean over cases "

@@ -31,6 +31,7 @@ import copy
 import dataclasses
 import math
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -100,23 +101,29 @@ class Row:
     seconds: list[float] = field(default_factory=list)
 
 
-def _synth(out: Path, args: list[str]) -> None:
-    """``naseview synth`` into ``out`` unless it is there already (the cache)."""
-    if out.is_dir() and any(out.iterdir()):
+def _synth(out: Path, n: int, args: list[str]) -> None:
+    """``naseview synth --batch n`` into ``out`` unless it holds ``n`` cases already (the
+    cache); a smaller cache is rendered again whole, into a fresh folder."""
+    if out.is_dir() and len(list(out.glob("case-*"))) >= n:
         return
-    subprocess.run([sys.executable, "-m", "naseview", "synth", str(out), *args], check=True,
-                   stdout=subprocess.DEVNULL)
+    tmp = out.with_name(out.name + ".new")
+    shutil.rmtree(tmp, ignore_errors=True)
+    subprocess.run([sys.executable, "-m", "naseview", "synth", str(tmp), "--batch", str(n),
+                    *args], check=True, stdout=subprocess.DEVNULL)
+    shutil.rmtree(out, ignore_errors=True)
+    tmp.rename(out)
 
 
 def build_sets(data: Path, n_scans: int, n_cases: int) -> list[SetSpec]:
     """The benchmark sets, rendering the missing synthetic cases into ``data``."""
-    _synth(data / "scan", ["--scan", str(JAMES / "james.obj"), "--landmarks",
-                           str(JAMES / "landmarks.json"), "--batch", str(n_scans),
-                           "--noise-px", "1.5"])
-    _synth(data / "generic", ["--model", "generic", "--batch", str(n_cases), "--seed", "100"])
-    _synth(data / "ict", ["--model", "ict", "--batch", str(n_cases), "--seed", "200"])
+    if n_scans > 0:
+        _synth(data / "scan", n_scans, ["--scan", str(JAMES / "james.obj"), "--landmarks",
+                                         str(JAMES / "landmarks.json"), "--noise-px", "1.5"])
+    if n_cases > 0:
+        _synth(data / "generic", n_cases, ["--model", "generic", "--seed", "100"])
+        _synth(data / "ict", n_cases, ["--model", "ict", "--seed", "200"])
     pick = lambda d, n: sorted(d.glob("case-*"))[:n]  # noqa: E731
-    return [
+    specs = [
         SetSpec("james-a", [SHARED / "scan-cases" / "james-a"], ("ict", "generic"), "real"),
         SetSpec("james-b", [SHARED / "scan-cases" / "james-b"], ("ict", "generic"), "real"),
         SetSpec("scan-james", pick(data / "scan", n_scans), ("ict", "generic"), "real"),
@@ -124,6 +131,7 @@ def build_sets(data: Path, n_scans: int, n_cases: int) -> list[SetSpec]:
         SetSpec("ict->generic", pick(data / "ict", n_cases), ("generic",), "cross"),
         SetSpec("in-model", pick(data / "ict", n_cases), ("ict",), "in-model"),
     ]
+    return [s for s in specs if s.cases]  # a set asked for with 0 cases is left out
 
 
 @dataclass
@@ -273,7 +281,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--data", type=Path,
                     default=Path(tempfile.gettempdir()) / "naseview-bench-real")
     ap.add_argument("--scans", type=int, default=3, help="synth --scan cases of james")
-    ap.add_argument("--cases", type=int, default=5, help="cross-model cases each way")
+    ap.add_argument("--cases", type=int, default=10, help="cross-model cases each way")
     ap.add_argument("--sets", default="", help="comma list of set names (default all)")
     ap.add_argument("--ablation", action="store_true", help="also print the ablation table")
     args = ap.parse_args(argv)
