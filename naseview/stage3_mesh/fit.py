@@ -16,7 +16,7 @@ True
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -199,8 +199,13 @@ def _fitted_face(model: FaceModel, w: np.ndarray, sim: _Similarity) -> np.ndarra
 
 
 def _misfit_warnings(model: FaceModel, residuals: dict[str, float], scale: float,
-                     params: RefineParams) -> list[str]:
-    """A poor overall fit, single landmarks far off while the others fit, a large scale."""
+                     params: RefineParams, verified: Collection[str] = ()) -> list[str]:
+    """A poor overall fit, single landmarks far off while the others fit, a large scale.
+
+    A landmark far off whose position two or more photos agree on (``verified``) is the
+    model's miss, not the click's: the message says so rather than sending the surgeon to
+    a click the geometry has already checked (the ICT int sits 7-8 mm from a real
+    face's)."""
     warnings: list[str] = []
     res = np.array(list(residuals.values()))
     rms = float(np.sqrt(np.mean(res ** 2)))
@@ -210,12 +215,18 @@ def _misfit_warnings(model: FaceModel, residuals: dict[str, float], scale: float
             "RMS; the warp and ARAP carry the rest"
             + ("" if model.name == "ict" else
                " (a closer base: install the ICT model with `naseview model fetch`)"))
-    # a click far off while the others fit: that landmark, not the model, is suspect
     far = [k for k, d in residuals.items()
            if d > max(params.fit_warn_mm, 3.0 * float(np.median(res)))]
-    if far:
+    shown = [k for k in far if k in verified]
+    unsure = [k for k in far if k not in verified]
+    if shown:
         warnings.append(
-            "stage 3: landmark(s) " + ", ".join(f"{k} ({residuals[k]:.1f} mm)" for k in far)
+            "stage 3: landmark(s) " + ", ".join(f"{k} ({residuals[k]:.1f} mm)" for k in shown)
+            + f" far from the '{model.name}' face model fit while the others fit; their photos "
+            "agree on them, so the model does not reach this nose there (not a click error)")
+    if unsure:  # a click far off while the others fit: that landmark, not the model
+        warnings.append(
+            "stage 3: landmark(s) " + ", ".join(f"{k} ({residuals[k]:.1f} mm)" for k in unsure)
             + " far from the face model fit while the others fit; check these clicks")
     if params.fit_scale and abs(math.log(scale)) > math.log(1.25):
         warnings.append(f"stage 3: the face model had to be scaled by {scale:.2f} to fit the "
@@ -226,7 +237,8 @@ def _misfit_warnings(model: FaceModel, residuals: dict[str, float], scale: float
 def fit_face_model(model: FaceModel, landmarks: Mapping[str, np.ndarray],
                    params: RefineParams | None = None,
                    ad_landmarks: np.ndarray | None = None,
-                   ad_landmark_tags: Sequence[AdLandmarkTag] | None = None) -> BaseFit:
+                   ad_landmark_tags: Sequence[AdLandmarkTag] | None = None,
+                   verified: Collection[str] = ()) -> BaseFit:
     """Fit the morphable model to 3D landmarks: the base face of eq. 18.
 
     Minimises, alternating a few times between the two unknowns,
@@ -246,6 +258,8 @@ def fit_face_model(model: FaceModel, landmarks: Mapping[str, np.ndarray],
         params: :class:`RefineParams` (``n_modes``, ``fit_sigma_mm``, ...).
         ad_landmarks, ad_landmark_tags: optional stage 2 (M, 3) sub-landmarks and their M
             tags (see :func:`~naseview.stage3_mesh.correspondences.correspondences`).
+        verified: ids whose position two or more photos agree on (only the wording of
+            the misfit warning depends on it).
     Returns:
         :class:`BaseFit` with the fitted face in the SPEC frame.
     Raises:
@@ -259,5 +273,5 @@ def fit_face_model(model: FaceModel, landmarks: Mapping[str, np.ndarray],
     V = _fitted_face(model, w, sim)
     residuals = {k: float(np.linalg.norm(V[v] - y))
                  for k, v, y in zip(fr.lm_ids, fr.v_lm, fr.Y[:len(fr.lm_ids)], strict=True)}
-    warnings += _misfit_warnings(model, residuals, sim.s, params)
+    warnings += _misfit_warnings(model, residuals, sim.s, params, verified)
     return BaseFit(V, w, float(sim.s), sim.R, sim.t, residuals, warnings)

@@ -195,9 +195,27 @@ def _carried(handles: Correspondences, slid: list[str], V: np.ndarray, F: np.nda
 
 def _suspect_landmarks(reconstruction: Reconstruction) -> frozenset[str]:
     """Landmark ids whose click stage 1 names as suspect (``extra.suspect_clicks``)."""
-    sus = reconstruction.extra.get("suspect_clicks") or []
-    return frozenset(str(s["landmark"]) for s in sus
+    sus = reconstruction.extra.get("suspect_clicks")
+    return frozenset(str(s["landmark"]) for s in (sus if isinstance(sus, list) else [])
                      if isinstance(s, dict) and "landmark" in s)
+
+
+def _verified_landmarks(reconstruction: Reconstruction) -> frozenset[str]:
+    """Landmark ids whose position two or more photos agree on: with a stage-1 residual
+    in two or more photos (``extra.residuals_px``), neither placed from one photo
+    (``extra.landmarks_one_photo``) nor named suspect. Empty without that record (a
+    reconstruction from elsewhere: nothing is taken as checked)."""
+    res = reconstruction.extra.get("residuals_px")
+    if not isinstance(res, dict):
+        return frozenset()
+    seen: dict[str, int] = {}
+    for per_view in res.values():
+        for k in per_view if isinstance(per_view, dict) else ():
+            seen[str(k)] = seen.get(str(k), 0) + 1
+    one = reconstruction.extra.get("landmarks_one_photo")
+    placed = frozenset(str(k) for k in one) if isinstance(one, (dict, list)) else frozenset()
+    return (frozenset(k for k, n in seen.items() if n >= 2 and k in reconstruction.landmarks)
+            - placed - _suspect_landmarks(reconstruction))
 
 
 def _deform(model: FaceModel, base: np.ndarray, region: np.ndarray, handles: Correspondences,
@@ -245,7 +263,8 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
     landmarks = dict(reconstruction.landmarks or {})
     sub = sublandmarks(reconstruction)
     t0 = time.perf_counter()
-    fit = fit_face_model(model, landmarks, params, *sub)
+    fit = fit_face_model(model, landmarks, params, *sub,
+                         verified=_verified_landmarks(reconstruction))
     t1 = time.perf_counter()
     base, handles, cw = warped_base(model, fit, landmarks, sub, params)
     t2 = time.perf_counter()

@@ -152,3 +152,23 @@ def test_generic_base_is_bent_not_crumpled(ict_model) -> None:
     assert err(res) < 1.2 and err(res) < err(fit) - 0.2
     for v, t in zip(res.handles.vertex_ids, res.handles.targets, strict=True):
         assert np.allclose(res.V[v], t, atol=1e-9)           # kept handles are exact
+
+
+def test_a_landmark_the_photos_agree_on_is_not_blamed_for_the_models_miss(ict_model) -> None:
+    """A real nose the model cannot reach: the far landmark is the model's miss when two
+    photos agree on it (stage 1's residuals), a click to check when one photo placed it."""
+    m = ict_model
+    _, Vt = _identity(m, 5)
+    lm = m.landmark_positions(Vt)
+    lm["prn"] = lm["prn"] + [0.0, 0.0, 15.0]
+    both = {"front": dict.fromkeys(lm, 1.0), "left": dict.fromkeys(lm, 1.0)}
+    checked = refine(m, Reconstruction(landmarks=lm, extra={"residuals_px": both}))
+    far = [w for w in checked.warnings if "prn (" in w]
+    assert far and all("not a click error" in w and "check" not in w for w in far)
+    one = refine(m, Reconstruction(landmarks=lm, extra={
+        "residuals_px": both, "landmarks_one_photo": {"prn": "template"}}))
+    assert any("prn (" in w and "check these clicks" in w for w in one.warnings)
+    # a hand-edited record of the wrong type is not read as checked (and does not crash)
+    odd = refine(m, Reconstruction(landmarks=lm, extra={"residuals_px": [1, 2],
+                                                        "suspect_clicks": 7}))
+    assert any("prn (" in w and "check these clicks" in w for w in odd.warnings)
