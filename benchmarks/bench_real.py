@@ -5,7 +5,8 @@ Sets (each case rendered once into ``--data``, default ``$TMPDIR/naseview-bench-
 - ``james-a``, ``james-b``: the photo cases of ``../shared/data/scan-cases`` (a real face
   scan, rendered by a renderer that is not naseview's);
 - ``scan-james``: ``naseview synth --scan`` of ``../shared/data/scans/james`` (menpo3d,
-  BSD-3), ``--scans`` seeds at 1.5 px click noise;
+  BSD-3), ``--scans`` seeds at 1.5 px click noise; ``scan-3px`` the same at 3 px
+  (about the click noise of ``james-b``: its reprojection RMSE is 2.2 px, james-a's 1.35);
 - ``generic->ict``: generic-face truth (``synth --model generic``) reconstructed on the
   ICT base; ``ict->generic``: ICT truth on the generic base (``--cases`` each way);
 - ``in-model``: the same ICT truth on the ICT base (with paper Table 1).
@@ -65,8 +66,11 @@ TARGETS: dict[str, dict[str, float]] = {
     "real": {"ict_mean": 0.7, "ict_p95": 1.8, "generic_mean": 1.0, "rmse": 0.8, "worst": 2.0},
     "cross": {"mean": 0.8},
     "in-model": {"mean": 0.31, "table1": 0.21},
+    "real-3px": {},
 }
-"""Issue 11's "must reach" figures (mm); seconds per case <= 2 everywhere."""
+"""Issue 11's "must reach" figures (mm); seconds per case <= 2 everywhere. The targets
+hold at 1.5 px clicks; ``real-3px`` (james at 3 px, the click noise of ``james-b``) is
+printed for reference, without targets."""
 
 ABLATION: dict[str, dict[str, Any]] = {
     "default": {},
@@ -117,8 +121,9 @@ def _synth(out: Path, n: int, args: list[str]) -> None:
 def build_sets(data: Path, n_scans: int, n_cases: int) -> list[SetSpec]:
     """The benchmark sets, rendering the missing synthetic cases into ``data``."""
     if n_scans > 0:
-        _synth(data / "scan", n_scans, ["--scan", str(JAMES / "james.obj"), "--landmarks",
-                                         str(JAMES / "landmarks.json"), "--noise-px", "1.5"])
+        for sub, noise in (("scan", "1.5"), ("scan-3px", "3")):
+            _synth(data / sub, n_scans, ["--scan", str(JAMES / "james.obj"), "--landmarks",
+                                         str(JAMES / "landmarks.json"), "--noise-px", noise])
     if n_cases > 0:
         _synth(data / "generic", n_cases, ["--model", "generic", "--seed", "100"])
         _synth(data / "ict", n_cases, ["--model", "ict", "--seed", "200"])
@@ -127,6 +132,8 @@ def build_sets(data: Path, n_scans: int, n_cases: int) -> list[SetSpec]:
         SetSpec("james-a", [SHARED / "scan-cases" / "james-a"], ("ict", "generic"), "real"),
         SetSpec("james-b", [SHARED / "scan-cases" / "james-b"], ("ict", "generic"), "real"),
         SetSpec("scan-james", pick(data / "scan", n_scans), ("ict", "generic"), "real"),
+        SetSpec("scan-3px", pick(data / "scan-3px", n_scans), ("ict", "generic"),
+                "real-3px"),
         SetSpec("generic->ict", pick(data / "generic", n_cases), ("ict",), "cross"),
         SetSpec("ict->generic", pick(data / "ict", n_cases), ("generic",), "cross"),
         SetSpec("in-model", pick(data / "ict", n_cases), ("ict",), "in-model"),
