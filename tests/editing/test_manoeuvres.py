@@ -63,8 +63,8 @@ def test_hump_reduction_lowers_the_hump_measure_by_the_amount(face):
     V, lms = _moved(b, plan, {"hump_reduction": amount})
     h1 = clinical_measurements(lms, None, V, b.F)["dorsal_hump_depth"]
     assert h0 - h1 == pytest.approx(amount, abs=0.2)
-    assert np.linalg.norm(lms["n"] - b.landmarks["n"]) < 1e-9       # the line n-prn stays
-    assert np.linalg.norm(lms["prn"] - b.landmarks["prn"]) < 1e-9
+    assert np.linalg.norm(lms["n"] - b.landmarks["n"]) < 1e-6       # the line n-prn stays
+    assert np.linalg.norm(lms["prn"] - b.landmarks["prn"]) < 1e-6
     V, lms = _moved(b, plan, {"hump_reduction": h0 + 1.0})      # past straight
     assert clinical_measurements(lms, None, V, b.F)["dorsal_hump_depth"] < 0.2
 
