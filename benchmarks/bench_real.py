@@ -78,9 +78,14 @@ ABLATION: dict[str, dict[str, Any]] = {
     "no landmark keep": {"keep_landmarks": False},
     "no landmark slide": {"slide_landmarks": False},
     "warp no carry": {"warp_carries_landmarks": False},
+    "no silhouettes": {"silhouette_rounds": 0, "mid_handles": True},
+    "silh. keep mid": {"mid_handles": True},
+    "silh. no detrend": {"silhouette_detrend": False},
 }
 """Ablation rows: each a change of RefineParams (rows whose fields a checkout lacks are
-skipped)."""
+skipped). The silhouette rows: the profile photos' occluding contours as stage-3 handles
+(:mod:`naseview.stage3_mesh.silhouette`) off, kept beside the mid-curve sub-landmark
+handles instead of replacing them, or without the per-photo rigid detrend."""
 
 
 @dataclass
@@ -118,10 +123,15 @@ def _synth(out: Path, n: int, args: list[str]) -> None:
     tmp.rename(out)
 
 
-def build_sets(data: Path, n_scans: int, n_cases: int) -> list[SetSpec]:
-    """The benchmark sets, rendering the missing synthetic cases into ``data``."""
+def build_sets(data: Path, n_scans: int, n_cases: int,
+               only: frozenset[str] = frozenset()) -> list[SetSpec]:
+    """The benchmark sets, rendering the missing synthetic cases into ``data`` (only those
+    of the sets named in ``only``, when given)."""
+    want = lambda name: not only or name in only  # noqa: E731
     if n_scans > 0:
-        for sub, noise in (("scan", "1.5"), ("scan-3px", "3")):
+        for sub, noise, name in (("scan", "1.5", "scan-james"), ("scan-3px", "3", "scan-3px")):
+            if not want(name):
+                continue
             _synth(data / sub, n_scans, ["--scan", str(JAMES / "james.obj"), "--landmarks",
                                          str(JAMES / "landmarks.json"), "--noise-px", noise])
     if n_cases > 0:
@@ -294,9 +304,9 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     use_shared_ict()
     os.environ.setdefault("OMP_NUM_THREADS", "2")
-    sets = build_sets(args.data, args.scans, args.cases)
-    if args.sets:
-        keep = set(args.sets.split(","))
+    keep = frozenset(args.sets.split(",")) if args.sets else frozenset()
+    sets = build_sets(args.data, args.scans, args.cases, keep)
+    if keep:
         sets = [s for s in sets if s.name in keep]
     runner = Runner()
     progress = lambda s: print(s, file=sys.stderr, flush=True)  # noqa: E731

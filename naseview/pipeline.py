@@ -53,8 +53,15 @@ from naseview.reconstruction import (
 from naseview.stage1_landmarks import SfmParams, SfmResult, bundle_adjust
 from naseview.stage1_landmarks.single_view import one_photo_sight_lines
 from naseview.stage2_curves import CurveParams, CurvesResult, extract_curves
+from naseview.stage2_curves.mask import estimate_background, foreground_mask
 from naseview.stage3_mesh import RefineParams, RefineResult, refine
 from naseview.stage3_mesh.sightline import Placed, SightLine, place_one_photo_landmarks
+from naseview.stage3_mesh.silhouette import (
+    SILHOUETTE_VIEWS,
+    Silhouette,
+    nose_box,
+    silhouette_from_mask,
+)
 from naseview.stages import STAGE_NAMES
 
 ProgressFn = Callable[[str, float], object]
@@ -181,9 +188,32 @@ def run_stage3(result: PipelineResult, case: Case, model: FaceModel,
 
     def stage3() -> RefineResult:
         _take_sight_lines(result, case, model, params)
-        return refine(model, rec, params)
+        sils: list[Silhouette] = []
+        if (params or RefineParams()).silhouette_rounds:
+            sils = photo_silhouettes(case, rec)
+        return refine(model, rec, params, sils)
 
     _take_stage3(result, _timed(result, progress, 3, stage3))
+
+
+def photo_silhouettes(case: Case, rec: Reconstruction) -> list[Silhouette]:
+    """The profile photos' silhouettes near the nose for stage 3's contour handles
+    (:mod:`~naseview.stage3_mesh.silhouette`): stage 2's background model and foreground
+    mask (default thresholds) in a box around the projected nose landmarks, for each of
+    ``SILHOUETTE_VIEWS`` whose border is a uniform background."""
+    out = []
+    for v in SILHOUETTE_VIEWS:
+        cam = rec.cameras.get(v)
+        if v not in case.views or cam is None:
+            continue
+        box = nose_box(cam, rec.landmarks)
+        if box is None:
+            continue
+        img = case.load_image(v)
+        bg = estimate_background(img)
+        if bg.uniform:
+            out.append(silhouette_from_mask(v, cam, foreground_mask(img, bg, 3, box), box))
+    return out
 
 
 def _take_sight_lines(result: PipelineResult, case: Case, model: FaceModel,

@@ -62,6 +62,11 @@ _RANGES: dict[str, tuple[Range, str]] = {
     "smooth_iterations": _R(0, 10_000, True, True, "the smoothing iterations"),
     "smooth_step": _R(0, 1, False, False, "the smoothing step (unitless)"),
     "smooth_tol": _R(0, 1, True, False, "the smoothing stopping step, mm"),
+    "silhouette_rounds": _R(0, 10, True, True, "rounds of photo-silhouette handles "
+                                               "(0: none)"),
+    "silhouette_max_mm": _R(0, 20, False, False, "the largest silhouette match, mm"),
+    "silhouette_spacing_mm": _R(0, 20, False, False, "the least spacing of silhouette "
+                                                     "handles, mm"),
 }
 """Numeric field -> allowed range and what it is (the error message's words)."""
 
@@ -159,6 +164,24 @@ class RefineParams:
             ``benchmarks/bench_stage3.py``); smoothing the displacement only evens out
             what ARAP changed and leaves an unedited nose exactly as it was.
 
+    Photo silhouettes (issue 11; :mod:`~naseview.stage3_mesh.silhouette`):
+        silhouette_rounds: after the ARAP solve, this many rounds of matching the nose's
+            occluding contour in the profile photos to their silhouettes, each adding the
+            matched contour vertices as hard handles and solving again (0: none). On (2,
+            with ``mid_handles`` off) since bench_real's ablation: james-a 0.661 -> 0.637
+            mm, james-b 0.797 -> 0.739 (p95 2.01 -> 1.68), cross-model (10 cases each way)
+            0.689 -> 0.679 and 0.865 -> 0.851, in-model 0.277 -> 0.276; +0.2-0.4 s a
+            case.
+        silhouette_max_mm: a contour vertex further than this from the silhouette (at its
+            depth, perpendicular to the line of sight) is not matched.
+        silhouette_spacing_mm: least spacing of silhouette handles from each other and
+            from the other handles.
+        silhouette_detrend: take out of each photo's contour offsets the part a 2D rigid
+            motion of the image explains (the camera's pose error).
+        mid_handles: the mid-curve sub-landmarks are hard ARAP handles; ``False`` (with
+            ``silhouette_rounds``): they shape the fit and the warp only, and the
+            silhouette handles hold the profile.
+
     Raises:
         NaseviewError: a value outside its range (the message names the field and range).
     """
@@ -195,6 +218,11 @@ class RefineParams:
     smooth_step: float = 0.1
     smooth_tol: float = 1e-5
     smooth_displacement: bool = True
+    silhouette_rounds: int = 2
+    silhouette_max_mm: float = 3.0
+    silhouette_spacing_mm: float = 1.0
+    silhouette_detrend: bool = True
+    mid_handles: bool = False
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -14,7 +14,11 @@ each in its own module:
    :data:`naseview.testbed.surface.ABLATION_ROWS`, shows why);
 4. :class:`~naseview.stage3_mesh.deform.NoseDeformer` - ARAP (eq. 19-20) on the nose region
    with a pinned margin ring and the handles as hard constraints, then cotangent
-   smoothing (eq. 21). It stays in the result, ready for the app's re-solves.
+   smoothing (eq. 21). It stays in the result, ready for the app's re-solves;
+5. :mod:`~naseview.stage3_mesh.silhouette` (naseview's addition, issue 11) - the nose's
+   occluding contour in the profile photos matched to their silhouettes and added as
+   hard handles, ``params.silhouette_rounds`` times (the dense form of the mid-curve,
+   whose sub-landmarks then shape the fit and warp only).
 
 Everything is in the SPEC frame (mm, origin g, +x subject's left, +y up, +z anterior).
 
@@ -44,6 +48,7 @@ from naseview.stage3_mesh.deform import DeformReport, NoseDeformer, deform_regio
 from naseview.stage3_mesh.fit import BaseFit, fit_face_model
 from naseview.stage3_mesh.params import RefineParams
 from naseview.stage3_mesh.result import RefineResult
+from naseview.stage3_mesh.silhouette import Silhouette, contour_targets, edge_faces
 from naseview.stage3_mesh.warp import smooth_warp
 
 _SubLandmarks = tuple[np.ndarray | None, Sequence[AdLandmarkTag] | None]
@@ -233,8 +238,44 @@ def _deform(model: FaceModel, base: np.ndarray, region: np.ndarray, handles: Cor
     return report.V, deformer.region_vertex_ids, deformer, report
 
 
+def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
+                       held: Correspondences, silhouettes: Sequence[Silhouette],
+                       params: RefineParams, seconds: dict[str, float]
+                       ) -> tuple[np.ndarray, np.ndarray, NoseDeformer | None,
+                                  DeformReport | None, Correspondences] | None:
+    """``params.silhouette_rounds`` rounds: the nose's occluding contour in each photo of
+    ``silhouettes`` matched to the photo's silhouette and added as hard handles, solved
+    again from the base (:mod:`~naseview.stage3_mesh.silhouette`). None when no contour
+    vertex matched; else (V, region, deformer, report, handles)."""
+    t = time.perf_counter()
+    F = np.asarray(model.faces, np.int64)
+    nose = np.asarray(model.nose_vertices, np.int64)
+    movable = np.zeros(len(V), bool)
+    movable[nose] = True
+    movable[held.vertex_ids] = False
+    ed = edge_faces(F)
+    out = None
+    for _ in range(params.silhouette_rounds):
+        ids, tg, names = contour_targets(V, F, silhouettes, movable, held.targets,
+                                         params.silhouette_spacing_mm,
+                                         params.silhouette_max_mm, ed,
+                                         params.silhouette_detrend)
+        if not len(ids):
+            break
+        allh = Correspondences(np.r_[held.vertex_ids, ids], np.r_[held.targets, tg],
+                               list(held.names) + names,
+                               np.r_[held.is_landmark, np.zeros(len(ids), bool)])
+        region = deform_region(base, model.faces, nose, allh.vertex_ids,
+                               params.handle_clearance_mm)
+        V, region, deformer, report = _deform(model, base, region, allh, params, seconds)
+        out = (V, region, deformer, report, allh)
+    seconds["silhouette"] = time.perf_counter() - t
+    return out
+
+
 def refine(model: FaceModel, reconstruction: Reconstruction,
-           params: RefineParams | None = None) -> RefineResult:
+           params: RefineParams | None = None,
+           silhouettes: Sequence[Silhouette] = ()) -> RefineResult:
     """Stage 3: base fit, correspondences, smooth warp, ARAP and smoothing of the nose.
 
     1. :func:`~naseview.stage3_mesh.fit.fit_face_model` (similarity + coefficients) - the
@@ -254,6 +295,8 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
         model: the face model (``load_face_model``).
         reconstruction: the stage 1 (and 2) :class:`~naseview.reconstruction.Reconstruction`.
         params: :class:`RefineParams`.
+        silhouettes: the photos' silhouettes for ``params.silhouette_rounds``
+            (:func:`~naseview.stage3_mesh.silhouette.photo_silhouettes`).
     Returns:
         :class:`RefineResult`.
     Raises:
@@ -276,6 +319,10 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
     carried = _carried(handles, slid, base, F, tol) if params.warp_carries_landmarks \
         else np.zeros(len(handles.names), bool)
     held = handles.subset(~carried) if carried.any() else handles
+    if not params.mid_handles and silhouettes and params.silhouette_rounds:
+        # the profile photos' silhouettes hold the profile instead (fit and warp keep them)
+        held = held.subset(np.array([not (n.startswith("mid") and not lm) for n, lm in
+                                     zip(held.names, held.is_landmark, strict=True)], bool))
     region = deform_region(base, model.faces, model.nose_vertices, held.vertex_ids,
                            params.handle_clearance_mm)
     seconds = {"fit": t1 - t0, "warp": t2 - t1, "correspondences": time.perf_counter() - t2}
@@ -289,6 +336,10 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
                                    params.handle_clearance_mm)
             V, region, deformer, report = _deform(model, base, region, held, params,
                                                   seconds)
+    if params.silhouette_rounds and silhouettes and deformer is not None:
+        sil = _silhouette_rounds(model, base, V, held, silhouettes, params, seconds)
+        if sil is not None:
+            V, region, deformer, report, held = sil
     handles = held
     nose = np.asarray(model.nose_vertices, np.int64)
     in_nose = np.zeros(len(V), bool)
