@@ -121,15 +121,19 @@ def silhouette_from_mask(view: str, camera: Camera, mask: np.ndarray,
 def nose_box(cam: Camera, landmarks: Mapping[str, np.ndarray], margin_px: int = 60
              ) -> tuple[int, int, int, int] | None:
     """(x0, y0, x1, y1) px: the box around the projected nose landmarks grown by
-    ``margin_px``, inside the image; None with fewer than 3 of them."""
+    ``margin_px``, inside the image; None with fewer than 3 of them, or when they do not
+    project to a box of at least 16 px in the photo (behind the camera, off the image)."""
     P = np.array([landmarks[k] for k in _NOSE_IDS if k in landmarks], float)
-    if len(P) < 3:
+    if len(P) < 3 or not (cam.depth(P) > 0).all():
         return None
     uv = cam.project(P)
+    if not np.isfinite(uv).all():
+        return None
     x0, y0 = np.floor(uv.min(0)).astype(int) - margin_px
     x1, y1 = np.ceil(uv.max(0)).astype(int) + margin_px
-    return (max(int(x0), 0), max(int(y0), 0), min(int(x1), cam.width),
-            min(int(y1), cam.height))
+    box = (max(int(x0), 0), max(int(y0), 0), min(int(x1), cam.width),
+           min(int(y1), cam.height))
+    return box if box[2] - box[0] >= 16 and box[3] - box[1] >= 16 else None
 
 
 def edge_faces(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

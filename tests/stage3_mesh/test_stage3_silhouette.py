@@ -100,3 +100,17 @@ def test_the_reconstruction_follows_the_profile_photos() -> None:
         d = surface_distances(V, F, np.array([lm[k] for k in ("n", "prn", "sn")]))
         assert d.max() < 0.2
     assert residual[2] < 0.8 * residual[0]
+
+
+def test_no_box_where_the_nose_is_not_in_front_of_the_camera() -> None:
+    """A camera the landmarks are behind, or that sees them off its image, gives no
+    silhouette box (a hand-edited reconstruction must not crash stage 3)."""
+    from naseview.stage3_mesh.silhouette import nose_box
+
+    cam = _camera()
+    lms = {k: np.array([0.0, -10.0 * i, 5.0]) for i, k in enumerate(("n", "k", "prn", "sn"))}
+    assert nose_box(cam, lms) is not None
+    behind = {k: p + [600.0, 0, 0] for k, p in lms.items()}
+    assert nose_box(cam, behind) is None
+    off = {k: p + [0, 0, 400.0] for k, p in lms.items()}      # far outside the image
+    assert nose_box(cam, off) is None
