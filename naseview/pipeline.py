@@ -244,10 +244,16 @@ def _take_sight_lines(result: PipelineResult, case: Case, model: FaceModel,
     rec.extra["landmarks_left_out"] = [k for k in rec.extra.get("landmarks_left_out", [])
                                        if k not in placed]
     rec.measurements = clinical_measurements(rec.landmarks, rec.curves or None)
-    result.warnings.append(
-        "stage 3: landmark(s) " + ", ".join(f"{k} (+-{p.sd_along_mm:.1f} mm along the ray)"
-                                            for k, p in placed.items())
-        + " clicked in one photo placed where the line of sight meets the fitted face")
+    for k, pl in placed.items():  # stage 1's placement note gives way to this one
+        line = (f"landmark {k!r} is clicked in photo {pl.view!r} only; placed on its line "
+                f"of sight at the depth of the fitted face (+-{pl.sd_along_mm:.1f} mm along "
+                "the ray); click it in a second photo")
+        stage1 = f"landmark {k!r} is clicked in photo "
+        at = [i for i, w in enumerate(result.warnings) if w.startswith(stage1)]
+        if at:
+            result.warnings[at[0]] = line
+        else:
+            result.warnings.append(line)
 
 
 def _fused(placed: dict[str, Placed], lines: dict[str, SightLine], rec: Reconstruction,

@@ -118,3 +118,23 @@ def test_sight_line_placement_is_fused_only_where_it_lowers_the_uncertainty() ->
     assert _fused(face, line, rec, sfm(1.0)) == {}               # stage 1 is surer
     both = _fused(face, line, rec, sfm(3.0))["mf_l"]           # the face is surer
     assert -104.0 < both.position[2] < -102.0 and both.sd_along_mm < 2.0
+
+
+def test_one_note_per_one_photo_landmark_saying_how_it_was_placed() -> None:
+    """The surgeon reads one note per landmark clicked in one photo, and it says where the
+    landmark finally is: stage 1's symmetry/template note gives way to the line-of-sight
+    one when stage 3 places it there (no two notes contradicting each other)."""
+    from pathlib import Path
+
+    from naseview.case import read_case
+    from naseview.pipeline import reconstruct
+
+    case = read_case(Path(__file__).resolve().parents[2] / "assets" / "demo-case")
+    res = reconstruct(case, load_face_model("generic"))
+    how = res.reconstruction.extra["landmarks_one_photo"]
+    assert how and "line of sight" in how.values()
+    for k, method in how.items():
+        notes = [w for w in res.warnings if f"'{k}'" in w and "clicked in photo" in w]
+        assert len(notes) == 1
+        assert ("line of sight" in notes[0]) == (method == "line of sight")
+    assert res.reconstruction.extra["warnings"] == res.warnings
