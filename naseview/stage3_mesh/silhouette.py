@@ -54,6 +54,7 @@ from scipy import ndimage
 
 from naseview.camera import Camera
 from naseview.geometry.mesh import face_normals
+from naseview.measurements.section import topology
 
 SILHOUETTE_VIEWS: tuple[str, ...] = ("left", "right")
 """Views whose nose outline is against the background (the profiles)."""
@@ -137,14 +138,11 @@ def nose_box(cam: Camera, landmarks: Mapping[str, np.ndarray], margin_px: int = 
 
 
 def edge_faces(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Interior edges (e, 2) of ``F`` and their two faces (e, 2)."""
-    E = np.sort(np.r_[F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1)
-    fid = np.tile(np.arange(len(F)), 3)
-    key = E[:, 0] * (int(F.max()) + 1) + E[:, 1]
-    order = np.argsort(key, kind="stable")
-    k, E, fid = key[order], E[order], fid[order]
-    same = np.flatnonzero(k[1:] == k[:-1])
-    return E[same], np.column_stack([fid[same], fid[same + 1]])
+    """Interior edges (e, 2) of ``F`` and their two faces (e, 2), from the mesh's cached
+    :func:`~naseview.measurements.section.topology`."""
+    topo = topology(F)
+    two = topo.edge_faces[:, 1] >= 0
+    return topo.edges[two], topo.edge_faces[two]
 
 
 def rim_points(V: np.ndarray, F: np.ndarray, cam: Camera, contour_edges: np.ndarray,
