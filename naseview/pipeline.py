@@ -173,34 +173,39 @@ def reconstruct(case: Case, model: FaceModel | str | None = None,
         _take_stage2(result, _timed(result, progress, 2,
                                     lambda: extract_curves(case, None, sfm, params.curves)))
     if 3 in stages:
-        run_stage3(result, case, _face_model(model), params.refine, progress)
+        run_stage3(result, case, _face_model(model), params.refine, progress, params.curves)
     _take_run_info(result, case)
     return result
 
 
 def run_stage3(result: PipelineResult, case: Case, model: FaceModel,
                params: RefineParams | None = None,
-               progress: ProgressFn | None = None) -> None:
+               progress: ProgressFn | None = None,
+               curve_params: CurveParams | None = None) -> None:
     """Stage 3 on a result of stages 1(-2) of ``case``, in place: the one-photo landmarks
-    on their lines of sight, then :func:`~naseview.stage3_mesh.refine` (the benchmarks
-    run it on a copy of a cached stage-1/2 result for each stage-3 variant)."""
+    on their lines of sight, then :func:`~naseview.stage3_mesh.refine` with the profile
+    photos' silhouettes (masked with stage 2's ``curve_params``; the benchmarks run it on
+    a copy of a cached stage-1/2 result for each stage-3 variant)."""
     rec = result.reconstruction
 
     def stage3() -> RefineResult:
         _take_sight_lines(result, case, model, params)
         sils: list[Silhouette] = []
         if (params or RefineParams()).silhouette_rounds:
-            sils = photo_silhouettes(case, rec)
+            sils = photo_silhouettes(case, rec, curve_params)
         return refine(model, rec, params, sils)
 
     _take_stage3(result, _timed(result, progress, 3, stage3))
 
 
-def photo_silhouettes(case: Case, rec: Reconstruction) -> list[Silhouette]:
+def photo_silhouettes(case: Case, rec: Reconstruction,
+                      curve_params: CurveParams | None = None) -> list[Silhouette]:
     """The profile photos' silhouettes near the nose for stage 3's contour handles
     (:mod:`~naseview.stage3_mesh.silhouette`): stage 2's background model and foreground
-    mask (default thresholds) in a box around the projected nose landmarks, for each of
-    ``SILHOUETTE_VIEWS`` whose border is a uniform background."""
+    mask, with the same thresholds as stage 2 (``curve_params``' mask fields), in a box
+    around the projected nose landmarks, for each of ``SILHOUETTE_VIEWS`` whose border is
+    a uniform background."""
+    p = curve_params or CurveParams()
     out = []
     for v in SILHOUETTE_VIEWS:
         cam = rec.cameras.get(v)
@@ -210,9 +215,11 @@ def photo_silhouettes(case: Case, rec: Reconstruction) -> list[Silhouette]:
         if box is None:
             continue
         img = case.load_image(v)
-        bg = estimate_background(img)
+        bg = estimate_background(img, p.border_px, p.hue_tol, p.sat_tol, p.val_tol,
+                                 p.grey_sat, p.border_min_inlier)
         if bg.uniform:
-            out.append(silhouette_from_mask(v, cam, foreground_mask(img, bg, 3, box), box))
+            mask = foreground_mask(img, bg, p.mask_clean_px, box)
+            out.append(silhouette_from_mask(v, cam, mask, box))
     return out
 
 
