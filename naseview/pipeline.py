@@ -57,9 +57,12 @@ from naseview.stage2_curves.mask import estimate_background, foreground_mask
 from naseview.stage3_mesh import RefineParams, RefineResult, refine
 from naseview.stage3_mesh.sightline import Placed, SightLine, place_one_photo_landmarks
 from naseview.stage3_mesh.silhouette import (
+    OUTLINE_CURVES,
     SILHOUETTE_VIEWS,
     Silhouette,
+    curve_piece,
     nose_box,
+    silhouette_from_curve,
     silhouette_from_mask,
 )
 from naseview.stages import STAGE_NAMES
@@ -191,8 +194,10 @@ def run_stage3(result: PipelineResult, case: Case, model: FaceModel,
     def stage3() -> RefineResult:
         _take_sight_lines(result, case, model, params)
         sils: list[Silhouette] = []
-        if (params or RefineParams()).silhouette_rounds:
+        p = params or RefineParams()
+        if p.silhouette_rounds:
             sils = photo_silhouettes(case, rec, curve_params)
+            sils += outline_silhouettes(result.curves, rec, p.outline_curves)
         return refine(model, rec, params, sils)
 
     _take_stage3(result, _timed(result, progress, 3, stage3))
@@ -220,6 +225,31 @@ def photo_silhouettes(case: Case, rec: Reconstruction,
         if bg.uniform:
             mask = foreground_mask(img, bg, p.mask_clean_px, box)
             out.append(silhouette_from_mask(v, cam, mask, box))
+    return out
+
+
+def outline_silhouettes(curves: CurvesResult | None, rec: Reconstruction,
+                        names: Iterable[str]) -> list[Silhouette]:
+    """The outlines over the face that stage 2 traced in the photos (the pieces ``names``
+    of :data:`~naseview.stage3_mesh.silhouette.OUTLINE_CURVES`), as silhouettes for stage
+    3's contour handles: only from curves found in the photo (flag ``"image"``), each
+    piece cut between the points nearest its end landmarks as the photo's camera
+    projects them."""
+    out: list[Silhouette] = []
+    if curves is None:
+        return out
+    for name in names:
+        curve, view, chain = OUTLINE_CURVES[name]
+        uv = curves.curves_2d.get(curve, {}).get(view)
+        cam = rec.cameras.get(view)
+        if (curves.flags.get(curve) != "image" or uv is None or cam is None
+                or any(k not in rec.landmarks for k in chain)):
+            continue
+        P = np.array([rec.landmarks[k] for k in chain], float)
+        ends = cam.project(P[[0, -1]])
+        s = silhouette_from_curve(name, cam, curve_piece(uv, ends[0], ends[1]), P)
+        if s is not None:
+            out.append(s)
     return out
 
 

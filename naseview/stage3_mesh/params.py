@@ -26,6 +26,11 @@ from dataclasses import dataclass, fields
 from naseview.landmarks import CURVE_NAMES, LANDMARK_IDS
 from naseview.params import Range, check_flag, check_names, check_number
 
+OUTLINE_CURVE_NAMES: tuple[str, ...] = ("bottom_l", "bottom_r", "bottom_tip", "ala_l",
+                                         "ala_r")
+"""The curves ``RefineParams.outline_curves`` may name (the keys of
+:data:`naseview.stage3_mesh.silhouette.OUTLINE_CURVES`)."""
+
 
 def _R(low: float, high: float, closed_low: bool, integer: bool,  # noqa: N802
        what: str) -> tuple[Range, str]:
@@ -181,6 +186,16 @@ class RefineParams:
         mid_handles: the mid-curve sub-landmarks are hard ARAP handles; ``False`` (with
             ``silhouette_rounds``): they shape the fit and the warp only, and the
             silhouette handles hold the profile.
+        outline_curves: pieces of stage 2's curves that trace the nose's outline over
+            the face (``"bottom_l"``, ``"bottom_r"``, ``"bottom_tip"`` in the bottom
+            photo, ``"ala_l"``, ``"ala_r"`` in the front photo;
+            :data:`~naseview.stage3_mesh.silhouette.OUTLINE_CURVES`) matched in the same
+            rounds as the profile silhouettes, where stage 2 found the curve in the photo
+            (flag ``"image"``). Default: the alar outlines of both photos, by bench_real's
+            ablation (nose surface mean, without -> with): james-a 0.637 -> 0.633 (ICT),
+            scan-james 0.591 -> 0.584 (ICT), 0.646 -> 0.639 (generic), ICT->generic
+            0.851 -> 0.846, the rest within +-0.002; the tip piece ``"bottom_tip"`` made
+            james-a worse (0.637 -> 0.658) and is left out.
 
     Raises:
         NaseviewError: a value outside its range (the message names the field and range).
@@ -223,6 +238,7 @@ class RefineParams:
     silhouette_spacing_mm: float = 1.0
     silhouette_detrend: bool = True
     mid_handles: bool = False
+    outline_curves: tuple[str, ...] = ("bottom_l", "bottom_r", "ala_l", "ala_r")
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -233,6 +249,8 @@ class RefineParams:
             elif f.name == "sub_landmark_curves":
                 if value is not None:
                     check_names("RefineParams", f.name, value, CURVE_NAMES)
+            elif f.name == "outline_curves":
+                check_names("RefineParams", f.name, value, OUTLINE_CURVE_NAMES)
             elif f.name == "handle_landmarks":
                 check_names("RefineParams", f.name, value, LANDMARK_IDS)
             else:

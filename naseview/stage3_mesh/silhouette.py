@@ -8,7 +8,11 @@ the ARAP solve of :func:`~naseview.stage3_mesh.solve.refine`, ICP-like rounds:
    of edges between a front-facing and a back-facing triangle
    (``sign(n_f . (C - centroid_f))`` differs), kept only where the vertex projects onto
    the boundary of the mesh's own projected outline, holes filled (an outer contour,
-   not an internal fold or a nostril), at most one per ``spacing_mm``;
+   not an internal fold or a nostril), at most one per ``spacing_mm``. For an outline
+   traced over the face (the alar rims seen from below, the alae seen from the front:
+   pieces of stage 2's curves, :func:`silhouette_from_curve`) the mesh's outline is not
+   the whole face's: there the contour vertices kept are those the camera sees, near
+   the piece's landmarks, whose projected outward normal agrees with the outline's;
 2. each such vertex ``X`` represented by the rim point ``P`` nearest it on its contour
    edges (where ``n . (C - X)`` interpolated along the edge is zero; projected ``u``,
    depth ``z`` mm), ``u`` moved onto the photo's silhouette along its normal (the zero
@@ -44,6 +48,7 @@ Example
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
@@ -51,13 +56,33 @@ import cv2
 import igl
 import numpy as np
 from scipy import ndimage
+from scipy.spatial import cKDTree
 
 from naseview.camera import Camera
 from naseview.geometry.mesh import face_normals
 from naseview.measurements.section import topology
+from naseview.render import rasterize, visible_points
 
 SILHOUETTE_VIEWS: tuple[str, ...] = ("left", "right")
 """Views whose nose outline is against the background (the profiles)."""
+
+OUTLINE_CURVES: dict[str, tuple[str, str, tuple[str, ...]]] = {
+    "bottom_l": ("bottom", "bottom", ("ac_l", "al_l", "alp_l")),
+    "bottom_r": ("bottom", "bottom", ("ac_r", "al_r", "alp_r")),
+    "bottom_tip": ("bottom", "bottom", ("alp_r", "prn", "alp_l")),
+    "ala_l": ("ala_l", "front", ("ac_l", "al_l", "int_l")),
+    "ala_r": ("ala_r", "front", ("ac_r", "al_r", "int_r")),
+}
+"""Pieces of stage-2 curves that trace an occluding contour of the nose over the face:
+piece -> (the curve, the photo it is detected in, the landmarks along the piece: it runs
+between the first and the last, the chord between them closes it on the nose's side,
+and only mesh vertices within :data:`OUTLINE_REACH_MM` of the chain through them are
+matched to it - seen from below, the sidewalls' contour projects next to the alar
+rims'). ``bottom_l``/``bottom_r``: the
+alar rims' outline over the lip and cheeks seen from below (ac-al-al'); ``bottom_tip``
+the tip lobule's (al'-prn-al'); ``ala_l``/``ala_r``: the alar outlines over the cheeks
+seen from the front (ac-al-int). The keys are
+:data:`naseview.stage3_mesh.params.OUTLINE_CURVE_NAMES`."""
 
 _NOSE_IDS: tuple[str, ...] = ("n", "k", "r", "prn", "c", "sn", "al_l", "al_r")
 
@@ -77,6 +102,16 @@ class Silhouette:
         normal: (2, y1-y0, x1-x0) unit gradient of ``sdf`` (x, y): the outward normal.
         edge_px: points within this of the box's edge are not matched (the mask is cut
             there).
+        outline: the silhouette is the whole face's outline against the background (a
+            profile photo): the contour matched is the mesh's outer outline. ``False``
+            (an outline over the face, :func:`silhouette_from_curve`): the contour
+            matched is the mesh's visible occluding contour whose outward normal agrees
+            with the silhouette's.
+        valid: (y1-y0, x1-x0) bool, the pixels a match may start from (None: all): for a
+            curve, those nearer the curve than the chord that closes it.
+        name: the handles' name (``"sil:<view>"``, ``"sil:<curve>"``).
+        chain: (m, 3) mm, the landmarks along an outline piece: only vertices within
+            :data:`OUTLINE_REACH_MM` of them are matched (None: any).
     """
 
     view: str
@@ -85,6 +120,15 @@ class Silhouette:
     sdf: np.ndarray
     normal: np.ndarray
     edge_px: int = 4
+    outline: bool = True
+    valid: np.ndarray | None = None
+    name: str = ""
+    chain: np.ndarray | None = None
+
+    @property
+    def label(self) -> str:
+        """The handles' name: ``name`` or ``"sil:<view>"``."""
+        return self.name or f"sil:{self.view}"
 
     def match(self, uv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(k, 2) pixels -> ((k, 2) offset onto the silhouette along its normal,
@@ -94,6 +138,9 @@ class Silhouette:
         q = uv - [x0, y0]
         h, w = self.sdf.shape
         ok = (q[:, 0] >= e) & (q[:, 0] <= w - 1 - e) & (q[:, 1] >= e) & (q[:, 1] <= h - 1 - e)
+        if self.valid is not None and ok.any():
+            p = np.round(q[ok]).astype(int)
+            ok[np.flatnonzero(ok)] = self.valid[p[:, 1], p[:, 0]]
         off = np.zeros_like(uv, dtype=np.float64)
         if ok.any():
             c = [q[ok, 1], q[ok, 0]]
@@ -117,6 +164,72 @@ def silhouette_from_mask(view: str, camera: Camera, mask: np.ndarray,
         sdf = np.where(m, sdf + 0.5, sdf - 0.5)             # zero half-way between pixels
     g = np.stack(np.gradient(ndimage.gaussian_filter(sdf.astype(np.float64), 1.0))[::-1])
     return Silhouette(view, camera, box, sdf.astype(np.float32), g.astype(np.float32))
+
+
+OUTLINE_REACH_MM = 5.0
+"""How far (mm) from the landmark chain of an :data:`OUTLINE_CURVES` piece a mesh vertex
+may lie and still be matched to it."""
+
+
+def near_chain(V: np.ndarray, chain: np.ndarray, reach_mm: float) -> np.ndarray:
+    """(n,) bool: the points ``V`` (n, 3) within ``reach_mm`` of the polyline ``chain``
+    (m, 3), sampled every 0.5 mm."""
+    chain = np.asarray(chain, float).reshape(-1, 3)
+    pts = [chain[:1]]
+    for a, b in zip(chain[:-1], chain[1:], strict=True):
+        k = max(int(np.ceil(np.linalg.norm(b - a) / 0.5)), 1)
+        pts.append(a + np.linspace(0, 1, k + 1)[1:, None] * (b - a))
+    d, _ = cKDTree(np.concatenate(pts)).query(V, distance_upper_bound=reach_mm)
+    return np.asarray(np.isfinite(d))
+
+
+def curve_piece(uv: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(k, 2) the part of the polyline ``uv`` (N, 2) between its points nearest ``a``
+    and ``b`` (2,) px, in the polyline's order."""
+    uv = np.asarray(uv, float).reshape(-1, 2)
+    i, j = (int(np.argmin(np.linalg.norm(uv - np.asarray(x, float), axis=1))) for x in (a, b))
+    return uv[min(i, j):max(i, j) + 1]
+
+
+def silhouette_from_curve(piece: str, camera: Camera, uv: np.ndarray, chain: np.ndarray,
+                          end_px: float = 3.0, margin_px: int = 40) -> Silhouette | None:
+    """:class:`Silhouette` of an outline traced over the face (a piece of a stage-2 curve
+    in its photo, :data:`OUTLINE_CURVES`): ``uv`` (N, 2) px closed by the straight chord
+    between its ends into a polygon whose inside is the nose's side; its signed distance
+    field in a box ``margin_px`` around it. A match may start only where the curve, not
+    the chord, is the nearest boundary, and not within ``end_px`` of the curve's ends
+    (past them the outline is unknown or another piece's), from a vertex near the
+    piece's landmark ``chain`` (m, 3) mm. None for fewer than 3 points or a box under
+    16 px."""
+    uv = np.asarray(uv, float).reshape(-1, 2)
+    if len(uv) < 3 or not np.isfinite(uv).all():
+        return None
+    chord = uv[[-1, 0]]
+    x0, y0 = np.floor(uv.min(0)).astype(int) - margin_px
+    x1, y1 = np.ceil(uv.max(0)).astype(int) + margin_px
+    x0, y0 = max(int(x0), 0), max(int(y0), 0)
+    x1, y1 = min(int(x1), camera.width), min(int(y1), camera.height)
+    if x1 - x0 < 16 or y1 - y0 < 16:
+        return None
+    q = uv - [x0, y0]
+    c = np.asarray(chord, float).reshape(2, 2) - [x0, y0]
+    shape = (y1 - y0, x1 - x0)
+    fix = lambda P: np.round(P * 8).astype(np.int32).reshape(-1, 1, 2)  # noqa: E731
+    poly = np.zeros(shape, np.uint8)
+    cv2.fillPoly(poly, [fix(q)], 1, cv2.LINE_8, 3)             # closed by the chord
+    line = np.ones(shape, np.uint8)
+    cv2.polylines(line, [fix(q)], False, 0, 1, cv2.LINE_8, 3)
+    cut = np.ones(shape, np.uint8)
+    cv2.polylines(cut, [fix(c)], False, 0, 1, cv2.LINE_8, 3)
+    d_curve = cv2.distanceTransform(line, cv2.DIST_L2, 5)
+    d_chord = cv2.distanceTransform(cut, cv2.DIST_L2, 5)
+    yy, xx = np.mgrid[0:shape[0], 0:shape[1]]
+    d_end = np.min([np.hypot(xx - e[0], yy - e[1]) for e in (q[0], q[-1])], axis=0)
+    valid = (d_curve + 1.0 < d_chord) & (d_end > end_px + d_curve)
+    s = silhouette_from_mask(OUTLINE_CURVES[piece][1], camera, poly.astype(bool),
+                             (0, 0, shape[1], shape[0]))
+    return dataclasses.replace(s, box=(x0, y0, x1, y1), outline=False, valid=valid,
+                               name=f"sil:{piece}", chain=np.asarray(chain, float))
 
 
 def nose_box(cam: Camera, landmarks: Mapping[str, np.ndarray], margin_px: int = 60
@@ -212,6 +325,49 @@ def occluding_contour(V: np.ndarray, F: np.ndarray, cam: Camera, edges: np.ndarr
     return ids, rim_points(V, F, cam, cont[keep], ids)
 
 
+def visible_contour(V: np.ndarray, F: np.ndarray, s: Silhouette, edges: np.ndarray,
+                    edge_faces: np.ndarray, candidates: np.ndarray, depth_tol_mm: float = 0.3
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices of ``candidates`` (bool (n,)) on the occluding contour of (V, F) seen from
+    ``s.camera`` that the camera sees (depth test in ``s.box``) and whose outward normal,
+    projected into the photo, points the way of the silhouette's outward normal (cosine
+    above 0.5: the outline of the nose over the face, not the rim of a nostril or a
+    fold): ((k,) ids, (k, 3) their :func:`rim_points`)."""
+    cam = s.camera
+    Fc = V[F].mean(1)
+    facing = np.einsum("ij,ij->i", face_normals(V, F), cam.center - Fc) > 0
+    cont = edges[facing[edge_faces[:, 0]] != facing[edge_faces[:, 1]]]
+    ids = np.unique(cont)
+    ids = ids[candidates[ids]]
+    if s.chain is not None:
+        ids = ids[near_chain(V[ids], s.chain, OUTLINE_REACH_MM)]
+    none = (np.zeros(0, np.int64), np.zeros((0, 3)))
+    if not len(ids):
+        return none
+    x0, y0, x1, y1 = s.box
+    K = cam.K.copy()
+    K[0, 2] -= x0
+    K[1, 2] -= y0
+    crop = Camera(K, cam.R, cam.t, x1 - x0, y1 - y0)
+    seen = visible_points(V[ids], crop, rasterize(V, F, crop).depth, tol_mm=depth_tol_mm)
+    ids = ids[seen]
+    if not len(ids):
+        return none
+    q = cam.project(V[ids]) - [x0, y0]
+    h, w = s.sdf.shape
+    inside = (q[:, 0] >= 0) & (q[:, 0] <= w - 1) & (q[:, 1] >= 0) & (q[:, 1] <= h - 1)
+    ids, q = ids[inside], q[inside]
+    N = np.asarray(igl.per_vertex_normals(V, F), float)[ids]
+    n2 = np.stack([N @ cam.R[0], N @ cam.R[1]], 1)
+    n2 /= np.maximum(np.linalg.norm(n2, axis=1, keepdims=True), 1e-9)
+    c = [q[:, 1], q[:, 0]]
+    g = np.stack([ndimage.map_coordinates(s.normal[i], c, order=1) for i in range(2)], 1)
+    g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
+    ids = ids[np.einsum("ij,ij->i", n2, g) > 0.5]
+    keep = np.isin(cont, ids).any(1)
+    return ids, rim_points(V, F, cam, cont[keep], ids)
+
+
 def _spaced(V: np.ndarray, ids: np.ndarray, spacing_mm: float,
             avoid: np.ndarray) -> np.ndarray:
     """Greedy subset of ``ids`` at least ``spacing_mm`` from each other and from the
@@ -226,25 +382,45 @@ def _spaced(V: np.ndarray, ids: np.ndarray, spacing_mm: float,
     return np.asarray(keep, np.int64)
 
 
-def _detrended(s: Silhouette, uv: np.ndarray, off: np.ndarray, inside: np.ndarray,
-               z: np.ndarray, max_mm: float, iterations: int = 10
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """The offsets left once a shift ``t`` of the whole image is taken out (the camera's
-    own pose error): ``t`` by point-to-line ICP (a normal offset sees only part of a
-    shift, so one mean is not enough), then each offset measured from ``u + t``. A
-    rotation is not taken out: on a base far from the nose (the generic face) a
-    dorsum at the wrong angle looks like one (measured: worse on the generic base)."""
+@dataclass
+class _Matches:
+    """One silhouette's contour points and their matches (module docstring, step 2)."""
+
+    s: Silhouette
+    ids: np.ndarray        # (k,) contour vertices
+    uv: np.ndarray         # (k, 2) their rim points' projections, px
+    z: np.ndarray          # (k,) the rim points' depths, mm
+    off: np.ndarray        # (k, 2) offsets onto the silhouette, px
+    inside: np.ndarray     # (k,) bool: matched inside the silhouette's box
+
+    def rematch(self, t: np.ndarray) -> None:
+        """Offsets measured from ``uv + t``."""
+        self.off, self.inside = self.s.match(self.uv + t)
+
+    def near(self, max_mm: float) -> np.ndarray:
+        """(k,) bool: matched within ``max_mm`` (perpendicular to the line of sight)."""
+        return self.inside & (np.linalg.norm(self.off, axis=1) * self.z
+                              / self.s.camera.focal_px <= max_mm)
+
+
+def _detrend(view: Sequence[_Matches], max_mm: float, iterations: int = 10) -> None:
+    """Take out of the offsets of one photo's silhouettes ``view`` the shift ``t`` of the
+    whole image that explains them best (the camera's own pose error), in place: ``t``
+    by point-to-line ICP over all of them (a normal offset sees only part of a shift, so
+    one mean is not enough), then each offset measured from ``u + t``. A rotation is not
+    taken out: on a base far from the nose (the generic face) a dorsum at the wrong angle
+    looks like one (measured: worse on the generic base)."""
     t = np.zeros(2)
     for _ in range(iterations):
-        near = inside & (np.linalg.norm(off, axis=1) * z / s.camera.focal_px <= max_mm)
-        if near.sum() < 6:
+        near = [m.off[m.near(max_mm)] for m in view]
+        if sum(len(n) for n in near) < 6:
             break
-        step = off[near].mean(0)
+        step = np.concatenate(near).mean(0)
         t = t + step
-        off, inside = s.match(uv + t)
+        for m in view:
+            m.rematch(t)
         if np.abs(step).max() < 0.02:
             break
-    return off, inside
 
 
 def contour_targets(V: np.ndarray, F: np.ndarray, silhouettes: Sequence[Silhouette],
@@ -253,42 +429,49 @@ def contour_targets(V: np.ndarray, F: np.ndarray, silhouettes: Sequence[Silhouet
                     detrend: bool = False
                     ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """Contour vertices of (V, F) in ``movable`` (bool (n,)) and their targets on the
-    photos' silhouettes: ((k,) ids, (k, 3) targets mm, k names ``"sil:<view>"``).
-    A vertex on two views' contours takes the first; handles of a later view keep
-    ``spacing_mm`` from the earlier views' too.
+    photos' silhouettes: ((k,) ids, (k, 3) targets mm, k names (:attr:`Silhouette.label`)).
+    A vertex on two photos' contours takes the first photo's; handles of a later
+    silhouette keep ``spacing_mm`` from the earlier ones' too.
 
-    With ``detrend`` the part of each view's offsets a shift of the whole image explains
-    (``b ~ u + t``: the camera's own pose error, which the landmarks already pin) is
-    taken out: the offset used is ``b - (u + t)`` (:func:`_detrended`)."""
+    With ``detrend`` the part of each photo's offsets (over all its silhouettes) a shift
+    of the whole image explains (``b ~ u + t``: the camera's own pose error, which the
+    landmarks already pin) is taken out: the offset used is ``b - (u + t)``
+    (:func:`_detrend`)."""
     E, EF = edge_data if edge_data is not None else edge_faces(F)
     ids_all: list[np.ndarray] = []
     tg_all: list[np.ndarray] = []
     names: list[str] = []
     used = np.zeros(len(V), bool)
-    for s in silhouettes:
-        ids, rim = occluding_contour(V, F, s.camera, E, EF, movable & ~used,
-                                     with_rim=True)
-        if not len(ids):
-            continue
-        cam = s.camera
-        uv = cam.project(rim)
-        off, inside = s.match(uv)
-        z = cam.depth(rim)
+    views = list(dict.fromkeys(s.view for s in silhouettes))
+    for view in views:
+        found: list[_Matches] = []
+        for s in (s for s in silhouettes if s.view == view):
+            if s.outline:
+                ids, rim = occluding_contour(V, F, s.camera, E, EF, movable & ~used,
+                                             with_rim=True)
+            else:
+                ids, rim = visible_contour(V, F, s, E, EF, movable & ~used)
+            if len(ids):
+                uv = s.camera.project(rim)
+                found.append(_Matches(s, ids, uv, s.camera.depth(rim), *s.match(uv)))
         if detrend:
-            off, inside = _detrended(s, uv, off, inside, z, max_mm)
-        dX = (z / cam.focal_px)[:, None] * (off[:, :1] * cam.R[0] + off[:, 1:] * cam.R[1])
-        ok = inside & (np.linalg.norm(dX, axis=1) <= max_mm)
-        ids, dX = ids[ok], dX[ok]
-        keep = _spaced(V, ids, spacing_mm, np.concatenate(
-            [np.asarray(avoid, float).reshape(-1, 3)] + [V[i] for i in ids_all]))
-        pos = {int(i): j for j, i in enumerate(ids)}
-        sel = np.array([pos[int(i)] for i in keep], np.int64)
-        if not len(sel):
-            continue
-        ids_all.append(ids[sel])
-        tg_all.append(V[ids[sel]] + dX[sel])
-        names += [f"sil:{s.view}"] * len(sel)
-        used[ids[sel]] = True
+            _detrend(found, max_mm)
+        for m in found:
+            cam = m.s.camera
+            dX = (m.z / cam.focal_px)[:, None] * (m.off[:, :1] * cam.R[0]
+                                                  + m.off[:, 1:] * cam.R[1])
+            ok = m.near(max_mm) & ~used[m.ids]
+            ids, dX = m.ids[ok], dX[ok]
+            keep = _spaced(V, ids, spacing_mm, np.concatenate(
+                [np.asarray(avoid, float).reshape(-1, 3)] + [V[i] for i in ids_all]))
+            pos = {int(i): j for j, i in enumerate(ids)}
+            sel = np.array([pos[int(i)] for i in keep], np.int64)
+            if not len(sel):
+                continue
+            ids_all.append(ids[sel])
+            tg_all.append(V[ids[sel]] + dX[sel])
+            names += [m.s.label] * len(sel)
+            used[ids[sel]] = True
     if not ids_all:
         return np.zeros(0, np.int64), np.zeros((0, 3)), []
     return np.concatenate(ids_all), np.concatenate(tg_all), names
