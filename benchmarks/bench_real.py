@@ -81,7 +81,7 @@ ABLATION: dict[str, dict[str, Any]] = {
     "no silhouettes": {"silhouette_rounds": 0, "mid_handles": True},
     "silh. keep mid": {"mid_handles": True},
     "silh. no detrend": {"silhouette_detrend": False},
-    "no outline curves": {"outline_curves": ()},
+    "alar outlines": {"outline_curves": ("bottom_l", "bottom_r", "ala_l", "ala_r")},
     "outline + tip": {"outline_curves": ("bottom_l", "bottom_r", "bottom_tip", "ala_l",
                                          "ala_r")},
 }
@@ -89,8 +89,8 @@ ABLATION: dict[str, dict[str, Any]] = {
 skipped). The silhouette rows: the profile photos' occluding contours as stage-3 handles
 (:mod:`naseview.stage3_mesh.silhouette`) off, kept beside the mid-curve sub-landmark
 handles instead of replacing them, or without the per-photo rigid detrend. The outline
-rows: the alar outlines over the face (bottom and front photos) off, or with the tip
-lobule's outline in the bottom photo added."""
+rows: the alar outlines over the face (bottom and front photos) on (off by default, for
+speed), and with the tip lobule's outline in the bottom photo added."""
 
 
 @dataclass

@@ -191,8 +191,11 @@ class RefineParams:
             photo, ``"ala_l"``, ``"ala_r"`` in the front photo;
             :data:`~naseview.stage3_mesh.silhouette.OUTLINE_CURVES`) matched in the same
             rounds as the profile silhouettes, where stage 2 found the curve in the photo
-            (flag ``"image"``). Default: the alar outlines of both photos, by bench_real's
-            ablation (nose surface mean, without -> with): james-a 0.637 -> 0.633 (ICT),
+            (flag ``"image"``). Default: none, for speed: the alar outlines of both
+            photos (``("bottom_l", "bottom_r", "ala_l", "ala_r")``) cost up to 0.7 s a
+            case (2.0 -> 2.7 s on ICT->generic, past the 2 s target: a full-mesh depth
+            raster per outline and round) for bench_real's gains (nose surface mean,
+            without -> with): james-a 0.637 -> 0.633 (ICT),
             scan-james 0.591 -> 0.584 (ICT), 0.646 -> 0.639 (generic), ICT->generic
             0.851 -> 0.846, the rest within +-0.002; the tip piece ``"bottom_tip"`` made
             james-a worse (0.637 -> 0.658) and is left out.
@@ -238,7 +241,7 @@ class RefineParams:
     silhouette_spacing_mm: float = 1.0
     silhouette_detrend: bool = True
     mid_handles: bool = False
-    outline_curves: tuple[str, ...] = ("bottom_l", "bottom_r", "ala_l", "ala_r")
+    outline_curves: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         for f in fields(self):

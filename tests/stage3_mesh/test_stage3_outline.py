@@ -54,6 +54,7 @@ def test_outline_curves_names_are_validated():
 
     from naseview.errors import NaseviewError
 
-    assert "bottom_tip" not in RefineParams().outline_curves
+    p = RefineParams(outline_curves=("bottom_l", "bottom_r", "ala_l", "ala_r"))
+    assert p.outline_curves[0] == "bottom_l"
     with pytest.raises(NaseviewError, match="outline_curves"):
         RefineParams(outline_curves=("nose",))
