@@ -25,11 +25,7 @@ from dataclasses import dataclass, fields
 
 from naseview.landmarks import CURVE_NAMES, LANDMARK_IDS
 from naseview.params import Range, check_flag, check_names, check_number
-
-OUTLINE_CURVE_NAMES: tuple[str, ...] = ("bottom_l", "bottom_r", "bottom_tip", "ala_l",
-                                         "ala_r")
-"""The curves ``RefineParams.outline_curves`` may name (the keys of
-:data:`naseview.stage3_mesh.silhouette.OUTLINE_CURVES`)."""
+from naseview.stage3_mesh.silhouette import OUTLINE_CURVES
 
 
 def _R(low: float, high: float, closed_low: bool, integer: bool,  # noqa: N802
@@ -253,7 +249,7 @@ class RefineParams:
                 if value is not None:
                     check_names("RefineParams", f.name, value, CURVE_NAMES)
             elif f.name == "outline_curves":
-                check_names("RefineParams", f.name, value, OUTLINE_CURVE_NAMES)
+                check_names("RefineParams", f.name, value, tuple(OUTLINE_CURVES))
             elif f.name == "handle_landmarks":
                 check_names("RefineParams", f.name, value, LANDMARK_IDS)
             else:

@@ -81,8 +81,7 @@ matched to it - seen from below, the sidewalls' contour projects next to the ala
 rims'). ``bottom_l``/``bottom_r``: the
 alar rims' outline over the lip and cheeks seen from below (ac-al-al'); ``bottom_tip``
 the tip lobule's (al'-prn-al'); ``ala_l``/``ala_r``: the alar outlines over the cheeks
-seen from the front (ac-al-int). The keys are
-:data:`naseview.stage3_mesh.params.OUTLINE_CURVE_NAMES`."""
+seen from the front (ac-al-int). ``RefineParams.outline_curves`` names its keys."""
 
 _NOSE_IDS: tuple[str, ...] = ("n", "k", "r", "prn", "c", "sn", "al_l", "al_r")
 
@@ -204,7 +203,6 @@ def silhouette_from_curve(piece: str, camera: Camera, uv: np.ndarray, chain: np.
     uv = np.asarray(uv, float).reshape(-1, 2)
     if len(uv) < 3 or not np.isfinite(uv).all():
         return None
-    chord = uv[[-1, 0]]
     x0, y0 = np.floor(uv.min(0)).astype(int) - margin_px
     x1, y1 = np.ceil(uv.max(0)).astype(int) + margin_px
     x0, y0 = max(int(x0), 0), max(int(y0), 0)
@@ -212,7 +210,7 @@ def silhouette_from_curve(piece: str, camera: Camera, uv: np.ndarray, chain: np.
     if x1 - x0 < 16 or y1 - y0 < 16:
         return None
     q = uv - [x0, y0]
-    c = np.asarray(chord, float).reshape(2, 2) - [x0, y0]
+    c = q[[-1, 0]]                                              # the chord
     shape = (y1 - y0, x1 - x0)
     fix = lambda P: np.round(P * 8).astype(np.int32).reshape(-1, 1, 2)  # noqa: E731
     poly = np.zeros(shape, np.uint8)
@@ -259,12 +257,13 @@ def edge_faces(F: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def rim_points(V: np.ndarray, F: np.ndarray, cam: Camera, contour_edges: np.ndarray,
-               ids: np.ndarray) -> np.ndarray:
+               ids: np.ndarray, normals: np.ndarray | None = None) -> np.ndarray:
     """(k, 3) the rim point nearest each vertex of ``ids`` on its contour edges: where
     ``g = n . (C - X)`` (vertex normals, linear along the edge) is zero. A contour vertex
     lies up to an edge off the rim and projects inside the outline; matching the vertex
-    itself would inflate the mesh by that much."""
-    N = np.asarray(igl.per_vertex_normals(V, F), float)
+    itself would inflate the mesh by that much. ``normals``: (n, 3) the vertex normals
+    when the caller has them."""
+    N = np.asarray(igl.per_vertex_normals(V, F), float) if normals is None else normals
     g = np.einsum("ij,ij->i", N, cam.center - V)
     a, b = contour_edges[:, 0], contour_edges[:, 1]
     den = g[a] - g[b]
@@ -284,6 +283,15 @@ def rim_points(V: np.ndarray, F: np.ndarray, cam: Camera, contour_edges: np.ndar
     return out
 
 
+def contour_edges(V: np.ndarray, F: np.ndarray, cam: Camera, edges: np.ndarray,
+                  edge_faces: np.ndarray) -> np.ndarray:
+    """(c, 2) the ``edges`` of (V, F) between a front- and a back-facing triangle seen
+    from ``cam`` (``sign(n_f . (C - centroid_f))`` differs across the edge):
+    the occluding contour generator."""
+    facing = np.einsum("ij,ij->i", face_normals(V, F), cam.center - V[F].mean(1)) > 0
+    return edges[facing[edge_faces[:, 0]] != facing[edge_faces[:, 1]]]
+
+
 def occluding_contour(V: np.ndarray, F: np.ndarray, cam: Camera, edges: np.ndarray,
                       edge_faces: np.ndarray, candidates: np.ndarray,
                       outline_px: float = 1.5, margin_px: int = 40,
@@ -294,9 +302,7 @@ def occluding_contour(V: np.ndarray, F: np.ndarray, cam: Camera, edges: np.ndarr
     projecting within ``outline_px`` of the boundary of the whole mesh's projected
     outline (rasterised in a box ``margin_px`` around them, holes filled). With
     ``with_rim`` also their (k, 3) :func:`rim_points`."""
-    Fc = V[F].mean(1)
-    facing = np.einsum("ij,ij->i", face_normals(V, F), cam.center - Fc) > 0
-    cont = edges[facing[edge_faces[:, 0]] != facing[edge_faces[:, 1]]]
+    cont = contour_edges(V, F, cam, edges, edge_faces)
     ids = np.unique(cont)
     ids = ids[candidates[ids]]
     if not len(ids):
@@ -334,9 +340,7 @@ def visible_contour(V: np.ndarray, F: np.ndarray, s: Silhouette, edges: np.ndarr
     above 0.5: the outline of the nose over the face, not the rim of a nostril or a
     fold): ((k,) ids, (k, 3) their :func:`rim_points`)."""
     cam = s.camera
-    Fc = V[F].mean(1)
-    facing = np.einsum("ij,ij->i", face_normals(V, F), cam.center - Fc) > 0
-    cont = edges[facing[edge_faces[:, 0]] != facing[edge_faces[:, 1]]]
+    cont = contour_edges(V, F, cam, edges, edge_faces)
     ids = np.unique(cont)
     ids = ids[candidates[ids]]
     if s.chain is not None:
@@ -357,7 +361,8 @@ def visible_contour(V: np.ndarray, F: np.ndarray, s: Silhouette, edges: np.ndarr
     h, w = s.sdf.shape
     inside = (q[:, 0] >= 0) & (q[:, 0] <= w - 1) & (q[:, 1] >= 0) & (q[:, 1] <= h - 1)
     ids, q = ids[inside], q[inside]
-    N = np.asarray(igl.per_vertex_normals(V, F), float)[ids]
+    NV = np.asarray(igl.per_vertex_normals(V, F), float)
+    N = NV[ids]
     n2 = np.stack([N @ cam.R[0], N @ cam.R[1]], 1)
     n2 /= np.maximum(np.linalg.norm(n2, axis=1, keepdims=True), 1e-9)
     c = [q[:, 1], q[:, 0]]
@@ -365,7 +370,7 @@ def visible_contour(V: np.ndarray, F: np.ndarray, s: Silhouette, edges: np.ndarr
     g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-9)
     ids = ids[np.einsum("ij,ij->i", n2, g) > 0.5]
     keep = np.isin(cont, ids).any(1)
-    return ids, rim_points(V, F, cam, cont[keep], ids)
+    return ids, rim_points(V, F, cam, cont[keep], ids, NV)
 
 
 def _spaced(V: np.ndarray, ids: np.ndarray, spacing_mm: float,
