@@ -47,6 +47,25 @@ def wait_for(cond: Callable[[], object], timeout: float, what: str) -> None:
 REPO = Path(__file__).resolve().parents[1]
 
 
+def wait_for_placed_camera(client: Any, baseline: Baseline, timeout: float = 30.0) -> None:
+    """Wait until a tab's camera (``viser.ClientHandle``) reports the view the app places
+    on a new tab (:data:`naseview.app.viewer.DEFAULT_VIEW` of ``baseline``): target and
+    eye both within 1 mm, and a canvas size. A tab's first reports can carry the placed
+    target with viser's default eye (3, 3, 3): a test projecting a landmark through that
+    camera would click beside it."""
+    from naseview.app.viewer import DEFAULT_VIEW, view_pose
+
+    target, eye, _, _ = view_pose(baseline.V, baseline.nose_ids, DEFAULT_VIEW)
+
+    def placed() -> bool:
+        cam = client.camera
+        return bool(np.linalg.norm(np.asarray(cam.look_at) - target) < 1.0
+                    and np.linalg.norm(np.asarray(cam.position) - eye) < 1.0
+                    and cam.image_width > 0)
+
+    wait_for(placed, timeout, "the tab's camera on the nose")
+
+
 @contextmanager
 def naseview_serve(args: list[str], env: Mapping[str, str] | None = None
                    ) -> Iterator[list[str]]:

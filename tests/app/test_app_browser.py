@@ -19,6 +19,7 @@ from helpers import (
     browser_or_skip,
     project_to_view,
     wait_for,
+    wait_for_placed_camera,
 )
 
 pytestmark = pytest.mark.browser
@@ -46,10 +47,8 @@ def test_page_renders_face_and_drag_deforms_mesh(app_server, tmp_path: Path):
             wait_for(lambda: app.screen_of(client) is not None
                      and app.screen_of(client).shown.is_set(), 30, "the tab's screen")
             scene = app.screen_of(client).scene
-            # the app points the camera at the nose (initial camera); wait until applied
-            look = np.asarray(server.initial_camera.look_at)
-            wait_for(lambda: np.linalg.norm(np.asarray(client.camera.look_at) - look) < 1.0,
-                     30, "the initial camera")
+            # the app points the tab's camera at the nose; wait until applied
+            wait_for_placed_camera(client, app.controller.baseline)
             canvas = page.locator("canvas").first
             box = canvas.bounding_box()
             assert box is not None

@@ -136,9 +136,12 @@ def test_foreign_page_gets_nothing_and_own_page_connects(served, foreign_site: s
             wait_for(lambda: any(app.screen_of(c) is not None and app.screen_of(c).shown
                                  .is_set() for c in connected), 30, "the page's screen")
             # Playwright may attach the frame listener after the first frames arrived:
-            # what it saw is a lower bound of what the page received
-            wait_for(lambda: received[0] > 0, 30, "the case to reach the page")
-            time.sleep(3.0)                   # fonts, environment maps, lazy chunks
+            # what it saw is a lower bound of what the page received. Its sync API runs
+            # event listeners only inside its own calls, so the wait pumps them
+            # (page.wait_for_timeout), where a bare sleep would see no frame at all.
+            wait_for(lambda: page.wait_for_timeout(50) or received[0] > 0, 30,
+                     "the case to reach the page")
+            page.wait_for_timeout(3000)       # fonts, environment maps, lazy chunks
             page.close()
         finally:
             browser.close()

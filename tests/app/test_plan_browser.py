@@ -36,7 +36,7 @@ def test_typed_hump_reduction_lowers_only_the_dorsum(ict_served):
         browser = p.chromium.launch(executable_path=CHROMIUM, headless=True,
                                     args=CHROMIUM_FLAGS)
         try:
-            page = browser.new_page(viewport={"width": 1280, "height": 900})
+            page = browser.new_page(viewport={"width": 1024, "height": 700})
             page.goto(f"http://127.0.0.1:{server.get_port()}/")
             page.wait_for_selector("canvas", timeout=30_000)
             label = page.locator("label", has_text="Dorsal hump reduction")

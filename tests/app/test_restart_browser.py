@@ -23,7 +23,7 @@ from naseview.editing.baseline import baseline_from_output_dir
 
 pytestmark = pytest.mark.browser
 
-VIEWPORT = {"width": 900, "height": 600}
+VIEWPORT = {"width": 720, "height": 480}
 
 
 def free_port() -> int:
@@ -103,8 +103,8 @@ def test_an_edit_survives_a_server_restart_with_its_undo(tmp_path: Path):
                 x0, y0 = to_pixel(base.landmarks["prn"], eye, target, fov, box)
                 page.mouse.move(x0, y0)
                 page.mouse.down()
-                for i in range(1, 6):
-                    page.mouse.move(x0, y0 - 8.0 * i)
+                for i in range(1, 4):          # each move waits for a software frame
+                    page.mouse.move(x0, y0 - 12.0 * i)
                 page.mouse.up()
                 wait_for(lambda: saved_edit() != first, 60, "the drag autosaved")
                 edited = shot(page, tmp_path / "2-dragged.png")

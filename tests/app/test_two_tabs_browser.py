@@ -24,6 +24,7 @@ from helpers import (
     ict_baseline,
     project_to_view,
     wait_for,
+    wait_for_placed_camera,
 )
 
 from naseview.app.guard import guarded_viser_server
@@ -58,7 +59,7 @@ def test_two_tabs_independent_cameras_one_simulation(served, tmp_path: Path):
         try:
             pages = []
             for _ in range(2):
-                page = browser.new_page(viewport={"width": 900, "height": 560})
+                page = browser.new_page(viewport={"width": 600, "height": 380})
                 page.goto(url)
                 page.wait_for_selector("canvas", timeout=30_000)
                 pages.append(page)
@@ -67,11 +68,8 @@ def test_two_tabs_independent_cameras_one_simulation(served, tmp_path: Path):
                      "both tabs' screens")
             a, b = sorted(app.screens.values(), key=lambda s: s.client.client_id)
             page_a, page_b = pages
-            look = np.asarray(server.initial_camera.look_at)
             for s in (a, b):      # each tab's camera on the nose (its own placement)
-                wait_for(lambda s=s: np.linalg.norm(np.asarray(s.client.camera.look_at)
-                                                    - look) < 1.0
-                         and s.client.camera.image_width > 0, 30, "the nose view")
+                wait_for_placed_camera(s.client, base)
 
             # orbit tab A's view: B's camera stays where it was
             b_pos = np.asarray(b.client.camera.position).copy()
@@ -82,8 +80,8 @@ def test_two_tabs_independent_cameras_one_simulation(served, tmp_path: Path):
             x0, y0 = box_a["x"] + 100, box_a["y"] + 0.75 * box_a["height"]  # no sphere there
             page_a.mouse.move(x0, y0)
             page_a.mouse.down()
-            for i in range(1, 6):
-                page_a.mouse.move(x0 + 25 * i, y0 - 4 * i)
+            for i in range(1, 4):                 # each move waits for a software frame
+                page_a.mouse.move(x0 + 40 * i, y0 - 6 * i)
             page_a.mouse.up()
             wait_for(lambda: np.linalg.norm(np.asarray(a.client.camera.position) - a_pos)
                      > 5.0, 15, "tab A's camera to move")
@@ -111,8 +109,8 @@ def test_two_tabs_independent_cameras_one_simulation(served, tmp_path: Path):
             x0, y0 = box_b["x"] + uv[0] * sx, box_b["y"] + uv[1] * sy
             page_b.mouse.move(x0, y0)
             page_b.mouse.down()
-            for i in range(1, 5):
-                page_b.mouse.move(x0, y0 - 9.0 * i)
+            for i in range(1, 4):
+                page_b.mouse.move(x0, y0 - 12.0 * i)
             page_b.mouse.up()
             wait_for(lambda: ctl.history_length >= 2, 20, "the drag to reach the server")
             assert ctl.wait_idle(20)
