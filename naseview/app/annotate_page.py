@@ -447,12 +447,14 @@ class AnnotatePage:
         timer = threading.Timer(2.2, lambda: self.submit(self._update_panel))
         timer.daemon = True
         timer.start()
-        note = (f" Downscaled from {info.original_width}x{info.original_height}."
-                if info.downscaled else "")
-        if had:
-            note += f" The {had} clicks on the previous {view} photo were removed."
         self.show_error(None)
-        self.notify(f"{VIEW_TITLES[view]} loaded", f"{info.width}x{info.height} px.{note}")
+        # The upload button turning green and the panel's photo line say it was loaded
+        # (and downscaled); a toast each would stack over the photo's midline, where the
+        # first landmarks are clicked, on a small window. Only lost clicks get one.
+        if had:
+            self.notify(f"{VIEW_TITLES[view]} replaced",
+                        f"{info.width}x{info.height} px. The {had} clicks on the previous "
+                        f"{view} photo were removed.")
         if view == self.view or self.plane is None or not s.photos.get(self.view):
             self.submit(lambda: self.set_view(view, fit=True))
         else:

@@ -144,6 +144,11 @@ def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
                             except AssertionError:
                                 if attempt == 2:
                                     raise
+                                # a toast under the pointer stays open while hovered:
+                                # move off it (as a user would) before clicking again
+                                page.mouse.move(box["x"] + box["width"] - 8,
+                                                box["y"] + box["height"] - 8)
+                                page.wait_for_timeout(500)
                         clicks += 1
                     t_start = t_start or time.monotonic()
                     travel += 0.0 if last is None else math.dist(last, q)
