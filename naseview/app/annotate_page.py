@@ -452,9 +452,10 @@ class AnnotatePage:
         # (and downscaled); a toast each would stack over the photo's midline, where the
         # first landmarks are clicked, on a small window. Only lost clicks get one.
         if had:
+            clicks = "1 click" if had == 1 else f"{had} clicks"
             self.notify(f"{VIEW_TITLES[view]} replaced",
-                        f"{info.width}x{info.height} px. The {had} clicks on the previous "
-                        f"{view} photo were removed.")
+                        f"{info.width}x{info.height} px. The {clicks} on the previous "
+                        f"{view} photo {'was' if had == 1 else 'were'} removed.")
         if view == self.view or self.plane is None or not s.photos.get(self.view):
             self.submit(lambda: self.set_view(view, fit=True))
         else:

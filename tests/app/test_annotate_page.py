@@ -56,3 +56,23 @@ def test_a_finished_drag_forgets_the_client_and_moves_the_click_once(page: Annot
     away = plane.to_world(np.array([250.0, 300.0]), 0.3)[0]
     asyncio.run(page._on_drag(drag_event("update", grab, away)))
     np.testing.assert_array_equal(page._handles["clicks"].batched_positions, rings)
+
+
+def test_an_upload_posts_no_toast_over_the_photo_but_lost_clicks_get_one(
+        page: AnnotatePage, monkeypatch: pytest.MonkeyPatch):
+    """Toasts stack over the photo where the first landmarks are clicked (on a small
+    window): a photo loaded says so in the panel only; replacing one says its clicks went."""
+    toasts: list[tuple[str, str]] = []
+    monkeypatch.setattr(page, "notify", lambda title, body, *a, **k: toasts.append(
+        (title, body)))
+    session = page.start("p2")
+    page.upload("front", png_bytes(np.full((400, 300, 3), 120, np.uint8)))
+    page.upload("bottom", png_bytes(np.full((400, 300, 3), 110, np.uint8)))
+    assert page.wait_idle(10)
+    assert toasts == []
+    session.place("front", "g", (100.0, 120.0))
+    page.upload("front", png_bytes(np.full((400, 300, 3), 130, np.uint8)))
+    assert page.wait_idle(10)
+    assert len(toasts) == 1
+    assert "The 1 click on the previous front photo was removed" in toasts[0][1]
+    assert session.clicks["front"] == {}
