@@ -79,7 +79,9 @@ ABLATION: dict[str, dict[str, Any]] = {
     "no landmark slide": {"slide_landmarks": False},
     "warp no carry": {"warp_carries_landmarks": False},
     "no silhouettes": {"silhouette_rounds": 0, "mid_handles": True},
+    "2 silh. rounds": {"silhouette_rounds": 2},
     "silh. keep mid": {"mid_handles": True},
+    "silh. drop mid": {"mid_handles": False},
     "silh. no detrend": {"silhouette_detrend": False},
     "alar outlines": {"outline_curves": ("bottom_l", "bottom_r", "ala_l", "ala_r")},
     "outline + tip": {"outline_curves": ("bottom_l", "bottom_r", "bottom_tip", "ala_l",
@@ -88,7 +90,9 @@ ABLATION: dict[str, dict[str, Any]] = {
 """Ablation rows: each a change of RefineParams (rows whose fields a checkout lacks are
 skipped). The silhouette rows: the profile photos' occluding contours as stage-3 handles
 (:mod:`naseview.stage3_mesh.silhouette`) off, kept beside the mid-curve sub-landmark
-handles instead of replacing them, or without the per-photo rigid detrend. The outline
+handles on every face model or dropped on every one (by default kept on a model with
+fewer modes than landmarks, the generic face: ``RefineParams.mid_handles``), or without
+the per-photo rigid detrend. The outline
 rows: the alar outlines over the face (bottom and front photos) on (off by default, for
 speed), and with the tip lobule's outline in the bottom photo added."""
 
@@ -199,8 +203,9 @@ class Runner:
         """The result on ``base`` and the seconds of stages 1-3."""
         if run_stage3 is None:
             case = read_case(d)
+            model = self.model(base)
             t = time.perf_counter()
-            res = reconstruct(case, self.model(base), params=params)
+            res = reconstruct(case, model, params=params)
             return res, time.perf_counter() - t, self._truth(d)
         if d not in self.cache:
             case = read_case(d)
@@ -209,8 +214,9 @@ class Runner:
             self.cache[d] = (case, res12, time.perf_counter() - t, _truth(d))
         case, res12, s12, truth = self.cache[d]
         res = copy.deepcopy(res12)
+        model = self.model(base)                 # loaded once per process, not per case
         t = time.perf_counter()
-        run_stage3(res, case, self.model(base), params.refine)
+        run_stage3(res, case, model, params.refine)
         return res, s12 + time.perf_counter() - t, truth
 
     def _truth(self, d: Path) -> Truth:

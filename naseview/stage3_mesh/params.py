@@ -166,13 +166,19 @@ class RefineParams:
             what ARAP changed and leaves an unedited nose exactly as it was.
 
     Photo silhouettes (issue 11; :mod:`~naseview.stage3_mesh.silhouette`):
-        silhouette_rounds: after the ARAP solve, this many rounds of matching the nose's
-            occluding contour in the profile photos to their silhouettes, each adding the
-            matched contour vertices as hard handles and solving again (0: none). On (2,
-            with ``mid_handles`` off) since bench_real's ablation: james-a 0.661 -> 0.637
+        silhouette_rounds: after the ARAP solve, at most this many rounds of matching
+            the nose's occluding contour in the profile photos to their silhouettes, each
+            adding the matched contour vertices as hard handles and solving again (0:
+            none); the rounds stop early at their fixed point (a round matching the
+            handles of the round before). Each match is capped at ``silhouette_max_mm``,
+            so a profile far from the photo needs several rounds to reach it. On since
+            bench_real's ablation (2 rounds, ``mid_handles`` off): james-a 0.661 -> 0.637
             mm, james-b 0.797 -> 0.739 (p95 2.01 -> 1.68), cross-model (10 cases each way)
-            0.689 -> 0.679 and 0.865 -> 0.851, in-model 0.277 -> 0.276; +0.2-0.4 s a
-            case.
+            0.689 -> 0.679 and 0.865 -> 0.851, in-model 0.277 -> 0.276. 6 rounds since
+            the next ablation (2 -> 6): james-b 0.739 -> 0.728 (ICT) and 0.775 -> 0.670
+            (generic), scan-3px generic 0.741 -> 0.731, scan-james generic 0.642 ->
+            0.636, cross-model 0.679 -> 0.675 and 0.835 -> 0.825; the ICT base on
+            james-a, scan-james and scan-3px within +0.004; +0.1-0.7 s a case.
         silhouette_max_mm: a contour vertex further than this from the silhouette (at its
             depth, perpendicular to the line of sight) is not matched.
         silhouette_spacing_mm: least spacing of silhouette handles from each other and
@@ -181,7 +187,15 @@ class RefineParams:
             motion of the image explains (the camera's pose error).
         mid_handles: the mid-curve sub-landmarks are hard ARAP handles; ``False`` (with
             ``silhouette_rounds``): they shape the fit and the warp only, and the
-            silhouette handles hold the profile.
+            silhouette handles hold the profile. ``None`` (default): kept where the fit
+            uses fewer identity modes than there are landmarks (21): such a model cannot
+            even interpolate the landmarks, and its profile between them needs the
+            curve's handles before the silhouettes (the built-in generic face, 9 modes);
+            dropped with a richer model (ICT, 100). Chosen by bench_real's ablation, the
+            same way on every set: on the generic base kept is better everywhere
+            (james-a 0.566 -> 0.560 mm, james-b 0.785 -> 0.775, scan-james 10 cases
+            0.687 -> 0.672, scan-3px 0.733 -> 0.721, ict->generic 0.861 -> 0.845), on
+            the ICT base worse (james-a 0.637 -> 0.647, james-b 0.739 -> 0.772).
         outline_curves: pieces of stage 2's curves that trace the nose's outline over
             the face (``"bottom_l"``, ``"bottom_r"``, ``"bottom_tip"`` in the bottom
             photo, ``"ala_l"``, ``"ala_r"`` in the front photo;
@@ -232,11 +246,11 @@ class RefineParams:
     smooth_step: float = 0.1
     smooth_tol: float = 1e-5
     smooth_displacement: bool = True
-    silhouette_rounds: int = 2
+    silhouette_rounds: int = 6
     silhouette_max_mm: float = 3.0
     silhouette_spacing_mm: float = 1.0
     silhouette_detrend: bool = True
-    mid_handles: bool = False
+    mid_handles: bool | None = None
     outline_curves: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
@@ -252,5 +266,16 @@ class RefineParams:
                 check_names("RefineParams", f.name, value, tuple(OUTLINE_CURVES))
             elif f.name == "handle_landmarks":
                 check_names("RefineParams", f.name, value, LANDMARK_IDS)
+            elif f.name == "mid_handles" and value is None:
+                pass                                    # automatic, per face model
             else:
                 check_flag("RefineParams", f.name, value)
+
+    def keeps_mid_handles(self, model_modes: int) -> bool:
+        """Whether the mid-curve sub-landmarks are hard handles with a face model of
+        ``model_modes`` identity modes (:attr:`mid_handles`; ``None``: when the fit uses
+        fewer modes than there are landmarks)."""
+        if self.mid_handles is not None:
+            return self.mid_handles
+        used = model_modes if self.n_modes is None else min(self.n_modes, model_modes)
+        return used < len(LANDMARK_IDS)

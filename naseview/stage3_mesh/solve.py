@@ -17,8 +17,10 @@ each in its own module:
    smoothing (eq. 21). It stays in the result, ready for the app's re-solves;
 5. :mod:`~naseview.stage3_mesh.silhouette` (naseview's addition, issue 11) - the nose's
    occluding contour in the profile photos matched to their silhouettes and added as
-   hard handles, ``params.silhouette_rounds`` times (the dense form of the mid-curve,
-   whose sub-landmarks then shape the fit and warp only).
+   hard handles, up to ``params.silhouette_rounds`` times, until a round matches the
+   handles of the round before (the dense form of the mid-curve, whose sub-landmarks
+   then shape the fit and warp only, unless the face model is too coarse to follow
+   them: ``params.keeps_mid_handles``).
 
 Everything is in the SPEC frame (mm, origin g, +x subject's left, +y up, +z anterior).
 
@@ -238,6 +240,11 @@ def _deform(model: FaceModel, base: np.ndarray, region: np.ndarray, handles: Cor
     return report.V, deformer.region_vertex_ids, deformer, report
 
 
+SILHOUETTE_FIXED_MM = 1e-3
+"""The silhouette rounds stop once a round's contour handles are those of the round
+before, their targets within this (mm): the rounds have reached their fixed point."""
+
+
 def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
                        held: Correspondences, silhouettes: Sequence[Silhouette],
                        params: RefineParams, seconds: dict[str, float]
@@ -255,13 +262,16 @@ def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
     movable[held.vertex_ids] = False
     ed = edge_faces(F)
     out = None
+    last: tuple[np.ndarray, np.ndarray] | None = None
     for _ in range(params.silhouette_rounds):
         ids, tg, names = contour_targets(V, F, silhouettes, movable, held.targets,
                                          params.silhouette_spacing_mm,
                                          params.silhouette_max_mm, ed,
                                          params.silhouette_detrend)
-        if not len(ids):
-            break
+        if not len(ids) or (last is not None and np.array_equal(ids, last[0])
+                            and np.abs(tg - last[1]).max() <= SILHOUETTE_FIXED_MM):
+            break                # the same handles again: this round would change nothing
+        last = (ids, tg)
         allh = Correspondences(np.r_[held.vertex_ids, ids], np.r_[held.targets, tg],
                                list(held.names) + names,
                                np.r_[held.is_landmark, np.zeros(len(ids), bool)])
@@ -319,7 +329,7 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
     carried = _carried(handles, slid, base, F, tol) if params.warp_carries_landmarks \
         else np.zeros(len(handles.names), bool)
     held = handles.subset(~carried) if carried.any() else handles
-    if not params.mid_handles and silhouettes and params.silhouette_rounds:
+    if not params.keeps_mid_handles(model.n_modes) and silhouettes and params.silhouette_rounds:
         # the profile photos' silhouettes hold the profile instead (fit and warp keep them)
         held = held.subset(np.array([not (n.startswith("mid") and not lm) for n, lm in
                                      zip(held.names, held.is_landmark, strict=True)], bool))

@@ -44,3 +44,17 @@ def test_names_flags_and_unknown_fields() -> None:
     with pytest.raises(TypeError, match="path_min_edge"):
         RefineParams(path_min_edge=1.0)  # type: ignore[call-arg]
     assert RefineParams(sub_landmark_curves=None, n_modes=None).n_modes is None
+
+
+def test_mid_curve_handles_are_kept_with_a_model_that_cannot_reach_the_landmarks() -> None:
+    """Automatic (None): hard mid-curve handles with fewer identity modes in the fit than
+    landmarks (the generic face, 9), none with a richer model (ICT, 100); n_modes counts
+    what the fit uses; an explicit choice wins."""
+    auto = RefineParams()
+    assert auto.mid_handles is None
+    assert auto.keeps_mid_handles(9) and not auto.keeps_mid_handles(100)
+    assert RefineParams(n_modes=9).keeps_mid_handles(100)
+    assert not RefineParams(mid_handles=False).keeps_mid_handles(9)
+    assert RefineParams(mid_handles=True).keeps_mid_handles(100)
+    with pytest.raises(NaseviewError, match="mid_handles: 'yes' is not True or False"):
+        RefineParams(mid_handles="yes")  # type: ignore[arg-type]
