@@ -32,11 +32,11 @@ from typing import Any
 import cv2
 import igl
 import numpy as np
-from igl.embree import ambient_occlusion
 
 from naseview.camera import orbit_camera
 from naseview.geometry.alignment import umeyama
 from naseview.geometry.mesh import face_normals
+from naseview.geometry.occlusion import occlusion
 from naseview.geometry.polygon import points_in_polygon
 from naseview.landmarks import LANDMARK_IDS
 from naseview.render import render_mesh
@@ -99,8 +99,8 @@ def region_samples(V: np.ndarray, F: np.ndarray, landmarks: Mapping[str, np.ndar
     keep = np.flatnonzero(points_in_polygon(C[:, :2], poly) & (area > 0))
     if not len(keep):
         return np.zeros((0, 3)), np.zeros(0, np.int64)
-    Nu = np.ascontiguousarray(Nf[keep] / (2 * area[keep])[:, None])
-    ao = ambient_occlusion(V, F, np.ascontiguousarray(C[keep] + 1e-3 * Nu), Nu, 64)
+    Nu = Nf[keep] / (2 * area[keep])[:, None]
+    ao = occlusion(V, F, C[keep], Nu)
     rng = np.random.default_rng(seed)
     k = rng.choice(len(keep), n_samples, p=area[keep] / area[keep].sum())
     r1, r2 = rng.random(n_samples), rng.random(n_samples)

@@ -22,8 +22,6 @@ Example
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import dataclasses
 import time
 from collections.abc import Mapping
@@ -31,12 +29,12 @@ from typing import Any
 
 import igl
 import numpy as np
-from igl.embree import ambient_occlusion
 
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
 from naseview.geometry.alignment import umeyama
 from naseview.geometry.mesh import face_normals
+from naseview.geometry.occlusion import occlusion
 from naseview.geometry.polygon import points_in_polygon
 from naseview.landmarks import LANDMARK_IDS
 from naseview.reconstruction import Reconstruction
@@ -57,27 +55,9 @@ def _open_nose_triangles(V: np.ndarray, F: np.ndarray, landmarks: Mapping[str, n
     area = 0.5 * np.linalg.norm(N, axis=1)
     keep = np.flatnonzero(points_in_polygon(C[:, :2], poly) & (area > 0))
     if len(keep):
-        Nu = np.ascontiguousarray(N[keep] / (2 * area[keep])[:, None])
-        _seed_c_rand(AO_SEED)
-        ao = ambient_occlusion(V, F, np.ascontiguousarray(C[keep] + 1e-3 * Nu), Nu, 64)
-        keep = keep[ao <= max_occlusion]
+        Nu = N[keep] / (2 * area[keep])[:, None]
+        keep = keep[occlusion(V, F, C[keep], Nu) <= max_occlusion]
     return keep, area
-
-
-AO_SEED = 1
-"""Seed of C's ``rand()`` before each ambient occlusion (see :func:`_seed_c_rand`)."""
-
-
-def _seed_c_rand(seed: int) -> None:
-    """Seed C's ``rand()``, which libigl's ambient occlusion draws its ray directions
-    from: unseeded, the kept triangles near ``max_occlusion`` - and so the nose samples
-    and every surface error - changed with whatever ran before in the process (by up to
-    0.04 mm on one case). Without a C library to call (not Linux or macOS), nothing."""
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library("c") or None)
-        libc.srand(ctypes.c_uint(seed))
-    except (OSError, AttributeError):
-        pass
 
 
 def nose_surface_samples(V: np.ndarray, F: np.ndarray, landmarks: Mapping[str, np.ndarray],

@@ -122,20 +122,25 @@ def test_evaluate_needs_truth(tmp_path: Path):
 
 
 def test_the_nose_samples_are_the_same_whatever_ran_before() -> None:
-    """The surface error's truth samples (and so every figure compared across a run) do
-    not depend on what ran earlier in the process: libigl's ambient occlusion, which
-    picks the open nose surface, draws from C's rand(), and other occlusion calls
-    advance it."""
+    """The surface error's truth samples and the region errors' nostril interior (and so
+    every figure compared across a run) do not depend on what ran earlier in the
+    process: libigl's ambient occlusion, which picks the open nose surface and the
+    cavities, draws from C's rand(), and other occlusion calls advance it."""
     from igl.embree import ambient_occlusion
 
     from naseview.facemodel import load_face_model
+    from naseview.testbed.regions import region_samples
     from naseview.testbed.surface import nose_surface_samples
 
     m = load_face_model("generic")
     V = np.asarray(m.mean, np.float64)
     F = np.asarray(m.faces, np.int64)
     first = nose_surface_samples(V, F, m.landmark_positions(V), 3000)
+    regions = region_samples(V, F, m.landmark_positions(V), 3000)[1]
     n = np.tile([0.0, 0.0, 1.0], (50, 1))
     ambient_occlusion(V, F, np.ascontiguousarray(V[:50] + n), n, 97)   # advances rand()
     again = nose_surface_samples(V, F, m.landmark_positions(V), 3000)
     np.testing.assert_array_equal(first, again)
+    ambient_occlusion(V, F, np.ascontiguousarray(V[:50] + n), n, 97)
+    np.testing.assert_array_equal(regions, region_samples(V, F, m.landmark_positions(V),
+                                                          3000)[1])
