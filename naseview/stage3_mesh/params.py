@@ -175,10 +175,11 @@ class RefineParams:
             bench_real's ablation (2 rounds, ``mid_handles`` off): james-a 0.661 -> 0.637
             mm, james-b 0.797 -> 0.739 (p95 2.01 -> 1.68), cross-model (10 cases each way)
             0.689 -> 0.679 and 0.865 -> 0.851, in-model 0.277 -> 0.276. 6 rounds since
-            the next ablation (2 -> 6): james-b 0.739 -> 0.728 (ICT) and 0.775 -> 0.670
-            (generic), scan-3px generic 0.741 -> 0.731, scan-james generic 0.642 ->
-            0.636, cross-model 0.679 -> 0.675 and 0.835 -> 0.825; the ICT base on
-            james-a, scan-james and scan-3px within +0.004; +0.1-0.7 s a case.
+            the next ablation (row "2 silh. rounds" against the default, deterministic
+            metric): james-b 0.739 -> 0.728 (ICT) and 0.775 -> 0.670 (generic),
+            scan-3px generic 0.741 -> 0.731, scan-james generic 0.641 -> 0.635,
+            cross-model 0.678 -> 0.675 and 0.845 -> 0.835; the ICT base on james-a,
+            scan-james and scan-3px within +0.004; +0.1-0.7 s a case.
         silhouette_max_mm: a contour vertex further than this from the silhouette (at its
             depth, perpendicular to the line of sight) is not matched.
         silhouette_spacing_mm: least spacing of silhouette handles from each other and
@@ -191,11 +192,12 @@ class RefineParams:
             uses fewer identity modes than there are landmarks (21): such a model cannot
             even interpolate the landmarks, and its profile between them needs the
             curve's handles before the silhouettes (the built-in generic face, 9 modes);
-            dropped with a richer model (ICT, 100). Chosen by bench_real's ablation, the
-            same way on every set: on the generic base kept is better everywhere
-            (james-a 0.566 -> 0.560 mm, james-b 0.785 -> 0.775, scan-james 10 cases
-            0.687 -> 0.672, scan-3px 0.733 -> 0.721, ict->generic 0.861 -> 0.845), on
-            the ICT base worse (james-a 0.637 -> 0.647, james-b 0.739 -> 0.772).
+            dropped with a richer model (ICT, 100). Chosen by bench_real's ablation
+            (rows "silh. drop mid" / "silh. keep mid" against the default): on the
+            generic base kept is better on james-b 0.699 -> 0.670 mm, scan-3px 0.741 ->
+            0.731, ict->generic 0.851 -> 0.835, level on scan-james (0.636 -> 0.635),
+            slightly worse on james-a (0.559 -> 0.562); on the ICT base kept is worse
+            (james-a 0.638 -> 0.647, james-b 0.728 -> 0.756).
         outline_curves: pieces of stage 2's curves that trace the nose's outline over
             the face (``"bottom_l"``, ``"bottom_r"``, ``"bottom_tip"`` in the bottom
             photo, ``"ala_l"``, ``"ala_r"`` in the front photo;
