@@ -22,6 +22,7 @@ import cv2
 import numpy as np
 import pytest
 
+from naseview.app.viewer import DEFAULT_VIEW, view_pose
 from naseview.camera import Camera, look_at
 from naseview.case import Case, View, write_case
 from naseview.editing.baseline import Baseline, Solved, baseline_from_face_model
@@ -53,8 +54,6 @@ def wait_for_placed_camera(client: Any, baseline: Baseline, timeout: float = 30.
     eye both within 1 mm, and a canvas size. A tab's first reports can carry the placed
     target with viser's default eye (3, 3, 3): a test projecting a landmark through that
     camera would click beside it."""
-    from naseview.app.viewer import DEFAULT_VIEW, view_pose
-
     target, eye, _, _ = view_pose(baseline.V, baseline.nose_ids, DEFAULT_VIEW)
 
     def placed() -> bool:
