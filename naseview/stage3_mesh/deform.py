@@ -59,10 +59,14 @@ class DeformReport:
 
 
 def deform_region(V_base: np.ndarray, F: np.ndarray, nose_vertex_ids: np.ndarray,
-                  handle_vertex_ids: np.ndarray, clearance_mm: float) -> np.ndarray:
+                  handle_vertex_ids: np.ndarray, clearance_mm: float,
+                  adjacency: sp.csr_matrix | None = None) -> np.ndarray:
     """(R,) sorted vertices that may move: the nose region plus every vertex within
-    ``clearance_mm`` (along the edges of ``V_base`` (n, 3), ``F`` (m, 3)) of a handle."""
-    grown = grow_by_distance(V_base, F, np.asarray(handle_vertex_ids, np.int64), clearance_mm)
+    ``clearance_mm`` (along the edges of ``V_base`` (n, 3), ``F`` (m, 3)) of a handle.
+    ``adjacency``: optional ``vertex_adjacency(n, F, V_base)`` (edge lengths), computed
+    once for a base that several handle sets deform."""
+    grown = grow_by_distance(V_base, F, np.asarray(handle_vertex_ids, np.int64), clearance_mm,
+                             adjacency)
     return np.unique(np.r_[np.asarray(nose_vertex_ids, np.int64), grown])
 
 
@@ -96,19 +100,22 @@ class NoseDeformer:
         handle_vertex_ids: (H,) distinct vertex ids constrained by :meth:`solve`.
         params: :class:`RefineParams`: ``margin_mm`` builds the ring; the ARAP and
             smoothing fields are the default of every solve.
+        adjacency: optional ``vertex_adjacency(V, F, V_base)`` (edge lengths), when the
+            caller builds several deformers of one base (stage 3's silhouette rounds).
     Raises:
         ValueError: repeated handle ids, or a handle in no triangle of the region.
     """
 
     def __init__(self, V_base: np.ndarray, F: np.ndarray, region_vertex_ids: np.ndarray,
-                 handle_vertex_ids: np.ndarray, params: RefineParams | None = None) -> None:
+                 handle_vertex_ids: np.ndarray, params: RefineParams | None = None,
+                 adjacency: sp.csr_matrix | None = None) -> None:
         self.params = params or RefineParams()
         self.V_base = np.ascontiguousarray(V_base, np.float64)
         self.F = np.ascontiguousarray(F, np.int64)
         self.handle_vertex_ids = np.asarray(handle_vertex_ids, np.int64).ravel()
         if len(np.unique(self.handle_vertex_ids)) != len(self.handle_vertex_ids):
             raise ValueError("handle_vertex_ids must be distinct")
-        self._build_submesh(region_vertex_ids)
+        self._build_submesh(region_vertex_ids, adjacency)
         self.data = igl.ARAPData()
         self.data.max_iter = 1
         igl.arap_precomputation(self._V_sub, self.sub_F, 3, self._b, self.data)
@@ -116,12 +123,13 @@ class NoseDeformer:
         self._U = self._V_sub.copy()                               # warm start
         self._base_normals = face_normals(self.V_base, self.F[self.face_ids])
 
-    def _build_submesh(self, region_vertex_ids: np.ndarray) -> None:
+    def _build_submesh(self, region_vertex_ids: np.ndarray,
+                       adjacency: sp.csr_matrix | None) -> None:
         """The region (+ handles), its pinned ring, the submesh and the constrained rows."""
         n = len(self.V_base)
         region = np.unique(np.r_[np.asarray(region_vertex_ids, np.int64).ravel(),
                                  self.handle_vertex_ids])
-        adj = vertex_adjacency(n, self.F, self.V_base)
+        adj = adjacency if adjacency is not None else vertex_adjacency(n, self.F, self.V_base)
         ring = np.setdiff1d(grow_by_distance(self.V_base, self.F, region, self.params.margin_mm,
                                              adj), region)
         self.region_vertex_ids = region

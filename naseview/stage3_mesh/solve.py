@@ -39,9 +39,11 @@ from collections.abc import Sequence
 
 import igl
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from naseview.facemodel import FaceModel
+from naseview.geometry.mesh import vertex_adjacency
 from naseview.geometry.region import grow_by_distance
 from naseview.reconstruction import Reconstruction
 from naseview.stage3_mesh.correspondences import Correspondences, correspondences
@@ -226,14 +228,16 @@ def _verified_landmarks(reconstruction: Reconstruction) -> frozenset[str]:
 
 
 def _deform(model: FaceModel, base: np.ndarray, region: np.ndarray, handles: Correspondences,
-            params: RefineParams, seconds: dict[str, float]
+            params: RefineParams, seconds: dict[str, float],
+            adjacency: sp.csr_matrix | None = None
             ) -> tuple[np.ndarray, np.ndarray, NoseDeformer | None, DeformReport | None]:
     """ARAP and smoothing (when enabled and there are handles): (V, region, deformer,
-    report); ``seconds`` gets the precompute and solve times."""
+    report); ``seconds`` gets the precompute and solve times. ``adjacency``: the base's
+    ``vertex_adjacency`` (edge lengths), when several handle sets deform it."""
     if not ((params.use_arap or params.use_smoothing) and len(handles.vertex_ids)):
         return base.copy(), region, None, None
     t = time.perf_counter()
-    deformer = NoseDeformer(base, model.faces, region, handles.vertex_ids, params)
+    deformer = NoseDeformer(base, model.faces, region, handles.vertex_ids, params, adjacency)
     seconds["precompute"] = time.perf_counter() - t
     report = deformer.solve_report(handles.targets, warm_start=False)
     seconds.update(report.seconds)
@@ -247,13 +251,15 @@ before, their targets within this (mm): the rounds have reached their fixed poin
 
 def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
                        held: Correspondences, silhouettes: Sequence[Silhouette],
-                       params: RefineParams, seconds: dict[str, float]
+                       params: RefineParams, seconds: dict[str, float],
+                       adjacency: sp.csr_matrix
                        ) -> tuple[np.ndarray, np.ndarray, NoseDeformer | None,
                                   DeformReport | None, Correspondences] | None:
     """``params.silhouette_rounds`` rounds: the nose's occluding contour in each photo of
     ``silhouettes`` matched to the photo's silhouette and added as hard handles, solved
-    again from the base (:mod:`~naseview.stage3_mesh.silhouette`). None when no contour
-    vertex matched; else (V, region, deformer, report, handles)."""
+    again from the base (:mod:`~naseview.stage3_mesh.silhouette`; ``adjacency`` the
+    base's ``vertex_adjacency``). None when no contour vertex matched; else (V, region,
+    deformer, report, handles)."""
     t = time.perf_counter()
     F = np.asarray(model.faces, np.int64)
     nose = np.asarray(model.nose_vertices, np.int64)
@@ -276,8 +282,9 @@ def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
                                list(held.names) + names,
                                np.r_[held.is_landmark, np.zeros(len(ids), bool)])
         region = deform_region(base, model.faces, nose, allh.vertex_ids,
-                               params.handle_clearance_mm)
-        V, region, deformer, report = _deform(model, base, region, allh, params, seconds)
+                               params.handle_clearance_mm, adjacency)
+        V, region, deformer, report = _deform(model, base, region, allh, params, seconds,
+                                              adjacency)
         out = (V, region, deformer, report, allh)
     seconds["silhouette"] = time.perf_counter() - t
     return out
@@ -333,21 +340,22 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
         # the profile photos' silhouettes hold the profile instead (fit and warp keep them)
         held = held.subset(np.array([not (n.startswith("mid") and not lm) for n, lm in
                                      zip(held.names, held.is_landmark, strict=True)], bool))
+    adj = vertex_adjacency(len(base), F, base)          # one base, several handle sets
     region = deform_region(base, model.faces, model.nose_vertices, held.vertex_ids,
-                           params.handle_clearance_mm)
+                           params.handle_clearance_mm, adj)
     seconds = {"fit": t1 - t0, "warp": t2 - t1, "correspondences": time.perf_counter() - t2}
-    V, region, deformer, report = _deform(model, base, region, held, params, seconds)
+    V, region, deformer, report = _deform(model, base, region, held, params, seconds, adj)
     if carried.any():
         # ARAP moved the skin under a carried landmark beyond its tolerance: hold it too
         lost = carried & ~_carried(handles, slid, V, F, tol)
         if lost.any():
             held = handles.subset(~(carried & ~lost))
             region = deform_region(base, model.faces, model.nose_vertices, held.vertex_ids,
-                                   params.handle_clearance_mm)
+                                   params.handle_clearance_mm, adj)
             V, region, deformer, report = _deform(model, base, region, held, params,
-                                                  seconds)
+                                                  seconds, adj)
     if params.silhouette_rounds and silhouettes and deformer is not None:
-        sil = _silhouette_rounds(model, base, V, held, silhouettes, params, seconds)
+        sil = _silhouette_rounds(model, base, V, held, silhouettes, params, seconds, adj)
         if sil is not None:
             V, region, deformer, report, held = sil
     handles = held
