@@ -491,10 +491,28 @@ def _check_names(names: Iterable[str]) -> list[str]:
     return out
 
 
+class _Blocked(NaseviewError):
+    """A folder holds the name of a file of the set (:func:`_check_not_blocked`)."""
+
+
+def _check_not_blocked(folder: Path, names: Iterable[str]) -> None:
+    """Raise when a file of the set cannot take its place: a folder (not a link to one)
+    holds its name, and a rename cannot replace a folder with a file. Called before
+    anything moves, so the previous set stays whole."""
+    for name in names:
+        p = folder / name
+        if p.is_dir() and not p.is_symlink():
+            raise _Blocked(f"{p}: is a folder where naseview writes its file {name!r}; "
+                                "move or rename that folder and run again; the previous "
+                                "result is unchanged")
+
+
 def _finish_commit(commit: Path, folder: Path) -> None:
     """Move the files of a complete set into ``folder`` (in the recorded order, the index
     file last), delete the files it replaces, then the commit folder."""
     manifest = json.loads((commit / _MANIFEST).read_text(encoding="utf-8"))
+    _check_not_blocked(folder, [*_check_names(manifest["files"]),
+                                *_check_names(manifest["remove"])])
     for name in _check_names(manifest["files"]):
         src = commit / name
         if src.exists():
@@ -526,6 +544,8 @@ def recover_file_sets(folder: str | os.PathLike[str], names: Iterable[str] = ())
             for left in folder.glob(f".{glob.escape(name)}.*.tmp"):
                 with contextlib.suppress(FileNotFoundError):
                     left.unlink()
+    except _Blocked as e:  # a folder in the way: name it, not the commit folder
+        raise NaseviewError(str(e)) from None
     except (OSError, ValueError, KeyError, TypeError, NaseviewError) as e:
         raise NaseviewError(f"{left}: left by an interrupted write and cannot be cleaned "
                             f"up ({one_line(e)}); delete it and run again") from None
@@ -549,8 +569,9 @@ def write_file_set(folder: str | os.PathLike[str], files: Mapping[str, bytes],
     Returns:
         the paths written, in order.
     Raises:
-        NaseviewError: the folder is not writable or the disk is full; the previous set is
-            then unchanged and nothing is left behind.
+        NaseviewError: the folder is not writable, the disk is full or a folder holds the
+            name of one of the files; the previous set is then unchanged and nothing is
+            left behind.
     """
     folder = Path(folder)
     names = _check_names(files)
@@ -561,6 +582,7 @@ def write_file_set(folder: str | os.PathLike[str], files: Mapping[str, bytes],
         raise write_error(folder, e, kept=False) from None
     with _folder_lock(folder):
         recover_file_sets(folder, names + stale)
+        _check_not_blocked(folder, names + stale)
         try:
             staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=folder))
         except OSError as e:

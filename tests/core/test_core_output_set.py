@@ -193,6 +193,45 @@ def test_leftover_temporary_files_of_a_crash_are_removed(tmp_path: Path):
     assert _hidden(out) == []
 
 
+@pytest.mark.parametrize("blocked", ["nose.ply", "reconstruction.json", "nose.stl"])
+def test_a_folder_in_the_way_of_one_file_keeps_the_whole_previous_set(tmp_path: Path,
+                                                                      blocked: str):
+    out = tmp_path / "out"
+    write_outputs(OLD, out, export=("stl",))
+    (out / blocked).unlink()
+    (out / blocked).mkdir()                  # e.g. a folder a user made with that name
+    before = {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()}
+    with pytest.raises(NaseviewError) as e:
+        write_outputs(NEW, out, export=("stl",))
+    msg = str(e.value)
+    assert "\n" not in msg and f"out/{blocked}: is a folder" in msg and "unchanged" in msg
+    assert {p.name: p.read_bytes() for p in out.iterdir() if p.is_file()} == before
+    assert _hidden(out) == []                # no commit left to finish half-way
+    (out / blocked).rmdir()                  # the fix the message names
+    write_outputs(NEW, out, export=("stl",))
+    assert _which(baseline_from_output_dir(out)) == "new"
+
+
+def test_an_interrupted_commit_blocked_by_a_folder_names_the_folder(tmp_path: Path):
+    out = tmp_path / "out"
+    write_file_set(out, {"a.txt": b"old a", "b.txt": b"old b"})
+    commit = out / ".naseview-commit-x1"
+    commit.mkdir()                           # a writer killed after its commit point
+    (commit / "a.txt").write_bytes(b"new a")
+    (commit / "b.txt").write_bytes(b"new b")
+    (commit / ".manifest.json").write_text(json.dumps({"files": ["a.txt", "b.txt"],
+                                                       "remove": []}))
+    (out / "b.txt").unlink()
+    (out / "b.txt").mkdir()
+    with pytest.raises(NaseviewError) as e:
+        write_file_set(out, {"a.txt": b"third a", "b.txt": b"third b"})
+    assert "out/b.txt: is a folder" in str(e.value) and "\n" not in str(e.value)
+    assert (out / "a.txt").read_bytes() == b"old a"      # nothing moved half-way
+    (out / "b.txt").rmdir()
+    write_file_set(out, {"a.txt": b"third a", "b.txt": b"third b"})
+    assert (out / "b.txt").read_bytes() == b"third b" and _hidden(out) == []
+
+
 def test_write_file_set_refuses_names_with_folders(tmp_path: Path):
     with pytest.raises(NaseviewError, match="plain file names"):
         write_file_set(tmp_path, {"../escape.txt": b"x"})
