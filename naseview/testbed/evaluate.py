@@ -44,7 +44,12 @@ from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel, load_face_model
 from naseview.fileio import read_json
 from naseview.geometry.alignment import umeyama
-from naseview.landmarks import CURVE_FAMILIES, TABLE1_DISTANCES, TABLE2_DISTANCES
+from naseview.landmarks import (
+    CURVE_FAMILIES,
+    LANDMARK_IDS,
+    TABLE1_DISTANCES,
+    TABLE2_DISTANCES,
+)
 from naseview.meshio import read_mesh
 from naseview.pipeline import PipelineParams, PipelineResult, parse_stages, reconstruct
 from naseview.reconstruction import Reconstruction, read_reconstruction
@@ -267,7 +272,43 @@ def boundary_case(run: CaseRun) -> dict[str, Any]:
         return {}
     rec = run.result.reconstruction
     ppm = px_per_mm_from_truth(run.truth.landmarks, run.truth.cameras["front"])
-    return boundary_errors(rec.curves, rec.cameras, read_json(path), ppm)
+    return boundary_errors(rec.curves, rec.cameras, read_truth_boundaries(path), ppm)
+
+
+def read_truth_boundaries(path: Path) -> dict[str, dict[str, np.ndarray]]:
+    """``truth_boundaries.json`` (SPEC §7): curve name -> view -> (M, 2) points (px).
+
+    Raises:
+        NaseviewError: not a JSON object of objects of ``[[x, y], ...]`` lists of finite
+            numbers, naming the file and the key.
+    """
+    obj = read_json(path)
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for name, per_view in obj.items():
+        if not isinstance(per_view, dict):
+            raise NaseviewError(f"{path}: key {name!r}: expected an object of view -> "
+                                "[[x, y], ...] points (SPEC §7)")
+        out[name] = {}
+        for view, pts in per_view.items():
+            try:
+                P = np.asarray(pts, dtype=np.float64)
+            except (TypeError, ValueError):
+                P = np.zeros((0, 3))
+            if P.size and (P.ndim != 2 or P.shape[1] != 2 or not np.isfinite(P).all()):
+                raise NaseviewError(f"{path}: key {name}.{view}: expected a list of [x, y] "
+                                    "pixel points of finite numbers (SPEC §7)")
+            out[name][view] = P.reshape(-1, 2)
+    return out
+
+
+def _read_truth(path: Path) -> Reconstruction:
+    """``truth.json`` with every landmark (SPEC §7: the true landmarks, all 21)."""
+    truth = read_reconstruction(path)
+    missing = [k for k in LANDMARK_IDS if k not in (truth.landmarks or {})]
+    if missing:
+        raise NaseviewError(f"{path}: key 'landmarks' lacks {', '.join(missing)}; a case's "
+                            "truth gives all 21 landmarks (as naseview synth writes them)")
+    return truth
 
 
 def _boundary_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
@@ -393,7 +434,8 @@ def _case_info(run: CaseRun) -> dict[str, Any]:
 
 
 class _CaseFailed(Exception):
-    """The pipeline failed on one case (the evaluation goes on with the others)."""
+    """One case could not be evaluated: a file of it is bad or the pipeline failed on it
+    (the evaluation goes on with the others)."""
 
     def __init__(self, case_id: str, d: Path, error: NaseviewError) -> None:
         super().__init__(str(error))
@@ -406,22 +448,25 @@ def _evaluate_case(d: Path, model: FaceModel | str | None, stages: tuple[int, ..
     """The pipeline on one case directory and every section of ``stages`` on its result.
 
     Raises:
-        NaseviewError: no ``truth.json`` (or case.json), or the pipeline failed.
+        _CaseFailed: no or a bad ``truth.json``, ``case.json``, truth mesh or truth
+            boundaries, or the pipeline failed (the one-line error names the file).
     """
-    if not (d / "truth.json").is_file():
-        raise NaseviewError(f"{d / 'truth.json'}: file not found; evaluate needs synthetic "
-                            "cases with ground truth (naseview synth)")
-    truth = read_reconstruction(d / "truth.json")
-    case = read_case(d)
+    case_id = d.name
     try:
+        if not (d / "truth.json").is_file():
+            raise NaseviewError(f"{d / 'truth.json'}: file not found; evaluate needs "
+                                "synthetic cases with ground truth (naseview synth)")
+        truth = _read_truth(d / "truth.json")
+        case = read_case(d)
+        case_id = case.id
         result = reconstruct(case, model=model, stages=stages, params=params)
+        run = CaseRun(d, case, truth, result, stages, maps_dir, ablate)
+        info = _case_info(run)
+        for sec in SECTIONS:
+            if sec.stage in stages:
+                info[sec.key] = sec.per_case(run)
     except NaseviewError as e:
-        raise _CaseFailed(case.id, d, e) from e
-    run = CaseRun(d, case, truth, result, stages, maps_dir, ablate)
-    info = _case_info(run)
-    for sec in SECTIONS:
-        if sec.stage in stages:
-            info[sec.key] = sec.per_case(run)
+        raise _CaseFailed(case_id, d, e) from e
     return info, result
 
 
@@ -457,10 +502,10 @@ def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]],
             ``<case folder>-surface-error.png``.
         ablate: also run the stage-3 ablation rows (``surface.ablation``).
     Returns:
-        ``{"cases": [per-case dict], "failed": [{"case", "error"}], "summary":
+        ``{"cases": [per-case dict], "failed": [{"case", "dir", "error"}], "summary":
         {section key: summary}, "stages": [...]}`` (JSON-ready, NaN for missing values).
-    Raises:
-        NaseviewError: a directory without ``truth.json`` or ``case.json``.
+        A case that cannot be evaluated (a missing or bad file of it, or a pipeline
+        error) is in ``failed`` with its one-line error; the others are still evaluated.
     """
     stages = parse_stages(stages)
     if isinstance(model, str) and 3 in stages:

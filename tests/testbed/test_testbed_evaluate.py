@@ -12,7 +12,6 @@ from helpers import BASE_NOSE, write_projected_case
 from scipy.stats import t as student_t
 
 from naseview.cli import main
-from naseview.errors import NaseviewError
 from naseview.landmarks import TABLE1_DISTANCES
 from naseview.testbed.evaluate import (
     evaluate_cases,
@@ -114,11 +113,28 @@ def test_evaluate_command_json_and_failed_case(tiny_set: list[Path], tmp_path: P
     assert rc == 0 and "Table 1: landmark distance error (mm)" in text
 
 
-def test_evaluate_needs_truth(tmp_path: Path):
-    d = write_projected_case(tmp_path / "c", seed=401)
-    (d / "truth.json").unlink()
-    with pytest.raises(NaseviewError, match="truth.json"):
-        evaluate_cases([d], stages=(1,))
+def test_a_case_with_a_bad_truth_file_fails_alone(tiny_set: list[Path], tmp_path: Path,
+                                                  capsys):
+    no_truth = write_projected_case(tmp_path / "no-truth", seed=401)
+    (no_truth / "truth.json").unlink()
+    no_prn = write_projected_case(tmp_path / "no-prn", seed=402)
+    truth = json.loads((no_prn / "truth.json").read_text())
+    del truth["landmarks"]["prn"]
+    (no_prn / "truth.json").write_text(json.dumps(truth))
+    bad_bounds = write_projected_case(tmp_path / "bad-bounds", seed=403)
+    (bad_bounds / "truth_boundaries.json").write_text('{"mid": 5}')
+    report = evaluate_cases([no_truth, tiny_set[0], no_prn, bad_bounds], stages=(1, 2))
+    assert len(report["cases"]) == 1                     # the good case, after a bad one
+    errors = {Path(f["dir"]).name: f["error"] for f in report["failed"]}
+    assert set(errors) == {"no-truth", "no-prn", "bad-bounds"}
+    assert "no-truth/truth.json: file not found" in errors["no-truth"]
+    assert "no-prn/truth.json: key 'landmarks' lacks prn" in errors["no-prn"]
+    assert "truth_boundaries.json: key 'mid'" in errors["bad-bounds"]
+    assert all("\n" not in e for e in errors.values())
+    assert main(["evaluate", str(no_truth), str(tiny_set[0]), "--stages", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "1 failed" in text and "Table 1: landmark distance error (mm)" in text
+    assert main(["evaluate", str(no_truth), "--stages", "1"]) == 2   # nothing evaluated
 
 
 def test_the_nose_samples_are_the_same_whatever_ran_before() -> None:
