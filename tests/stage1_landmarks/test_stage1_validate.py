@@ -55,6 +55,14 @@ def test_missing_glabella_and_missing_scale_landmarks():
     assert "mf_l" in msg
 
 
+@pytest.mark.parametrize("distance", [0.0342, 3.42, 342.0])   # metres, cm, 0.1 mm units
+def test_a_calliper_distance_in_the_wrong_unit_is_an_error(distance: float):
+    case, _ = make_case(76)
+    case.scale_mm = {("al_l", "al_r"): distance}
+    msg = _one_line_error(case, "'scale_mm.al_l-al_r'")
+    assert f"{distance:g} mm" in msg and "millimetres" in msg
+
+
 def test_clicks_of_another_photo_fail_to_converge():
     case, _ = make_case(74)
     # the right photo's clicks replaced by a scrambled copy of the front photo's
