@@ -35,6 +35,27 @@ TEMPLATE_MM: dict[str, tuple[float, float, float]] = _with_right_side({
 """id -> (x, y, z) mm of the 21 landmarks of the generic nose (SPEC frame)."""
 
 
+PLAUSIBLE_FACTOR = 3.0
+"""A distance between two landmarks more than this many times shorter or longer than on
+the template is not a nose in millimetres (a wrong unit, cm or m, or the wrong points):
+human noses vary far less (alar width 25-50 mm against the template's 34)."""
+
+
+def typical_distance_mm(a: str, b: str) -> float:
+    """The distance (mm) between landmarks ``a`` and ``b`` on the template."""
+    return float(np.linalg.norm(np.subtract(TEMPLATE_MM[a], TEMPLATE_MM[b])))
+
+
+def plausible_distance(a: str, b: str, d_mm: float) -> bool:
+    """Whether ``d_mm`` can be the distance between landmarks ``a`` and ``b`` of a nose in
+    millimetres: within :data:`PLAUSIBLE_FACTOR` of the template's (True for ids the
+    template lacks)."""
+    if a not in TEMPLATE_MM or b not in TEMPLATE_MM:
+        return True
+    typical = typical_distance_mm(a, b)
+    return typical / PLAUSIBLE_FACTOR <= d_mm <= typical * PLAUSIBLE_FACTOR
+
+
 def aligned_template(landmarks: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], float]:
     """The generic nose template moved onto ``landmarks`` by a least-squares similarity.
 

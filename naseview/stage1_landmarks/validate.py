@@ -16,7 +16,7 @@ from naseview.landmarks import LANDMARK_IDS, VIEWS
 from naseview.stage1_landmarks.frame import PAIR_BASES
 from naseview.stage1_landmarks.params import SfmParams
 from naseview.stage1_landmarks.problem import Problem
-from naseview.stage1_landmarks.template import TEMPLATE_MM
+from naseview.stage1_landmarks.template import plausible_distance, typical_distance_mm
 
 
 class MirroredError(NaseviewError):
@@ -47,24 +47,16 @@ def check_inputs(case: Case, params: SfmParams) -> None:
     _check_scale_units(case)
 
 
-SCALE_PLAUSIBLE_FACTOR = 3.0
-"""A calliper distance more than this many times shorter or longer than the same distance
-on the generic nose template (:data:`.template.TEMPLATE_MM`) is in the wrong unit (cm,
-m, inches) or between the wrong landmarks: an error, not a scaled-down nose."""
-
-
 def _check_scale_units(case: Case) -> None:
-    """Every ``scale_mm`` distance within a factor :data:`SCALE_PLAUSIBLE_FACTOR` of the
-    template nose's (human noses vary far less: alar width 25-50 mm)."""
+    """Every ``scale_mm`` distance a plausible one between its landmarks on a nose in mm
+    (:func:`.template.plausible_distance`): another unit is an error, not a tiny nose."""
     for (a, b), d in case.scale_mm.items():
-        if a not in TEMPLATE_MM or b not in TEMPLATE_MM:
-            continue
-        typical = float(np.linalg.norm(np.subtract(TEMPLATE_MM[a], TEMPLATE_MM[b])))
-        if not typical / SCALE_PLAUSIBLE_FACTOR <= d <= typical * SCALE_PLAUSIBLE_FACTOR:
+        if not plausible_distance(a, b, d):
             raise NaseviewError(
                 f"{case_file(case)}: key 'scale_mm.{a}-{b}': {d:g} mm is not a distance "
-                f"between these landmarks on a nose (typically about {typical:.0f} mm); give "
-                "the calliper distance in millimetres (1 cm = 10 mm)")
+                f"between these landmarks on a nose (typically about "
+                f"{typical_distance_mm(a, b):.0f} mm); give the calliper distance in "
+                "millimetres (1 cm = 10 mm)")
 
 
 def _check_clicks(case: Case, v: str, params: SfmParams) -> None:

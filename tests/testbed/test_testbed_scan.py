@@ -100,6 +100,31 @@ def test_synth_scan_bad_inputs_are_one_line_errors(scan_files, tmp_path, capsys)
     assert not (tmp_path / "x").exists()                      # nothing half-written
 
 
+def test_synth_scan_refuses_landmarks_in_metres_and_a_mesh_without_area(
+        scan_files, tmp_path, capsys) -> None:
+    ply, lmf, data = scan_files
+    out = str(tmp_path / "x")
+    t = np.array(data["transform_from_obj"]["t"])
+    metres = dict(data, landmarks={k: (np.array(v) / 1000).tolist()   # all near g: every
+                                   for k, v in data["landmarks"].items()},   # one "on" it
+                  transform_from_obj=dict(data["transform_from_obj"], t=(t / 1000).tolist()))
+    (tmp_path / "m.json").write_text(json.dumps(metres))
+    err = _fails(capsys, ["synth", out, "--scan", str(ply), "--landmarks",
+                          str(tmp_path / "m.json")])
+    assert "m.json" in err and "al_l-al_r" in err and "millimetres" in err
+    same = dict(data, landmarks=dict(data["landmarks"], al_r=data["landmarks"]["al_l"]))
+    (tmp_path / "s.json").write_text(json.dumps(same))
+    err = _fails(capsys, ["synth", out, "--scan", str(ply), "--landmarks",
+                          str(tmp_path / "s.json")])
+    assert "al_l-al_r is 0 mm" in err
+    V, F = read_mesh(ply)
+    export_mesh(tmp_path / "flat.ply", np.zeros_like(V) + V[0], F)   # every triangle a point
+    err = _fails(capsys, ["synth", out, "--scan", str(tmp_path / "flat.ply"), "--landmarks",
+                          str(lmf)])
+    assert "flat.ply" in err and "non-zero area" in err
+    assert not (tmp_path / "x").exists()
+
+
 def test_james_scan_reads_with_its_texture() -> None:
     scan = read_scan(JAMES / "james.obj", JAMES / "landmarks.json")
     assert scan.texture is not None and scan.uv is not None

@@ -49,6 +49,7 @@ from naseview.measurements import clinical_measurements
 from naseview.meshio import export_mesh, read_mesh, triangulate_polygons
 from naseview.reconstruction import Reconstruction
 from naseview.render import rasterize, shade_vertices
+from naseview.stage1_landmarks.template import plausible_distance, typical_distance_mm
 from naseview.testbed.synth.clicks import view_clicks
 from naseview.testbed.synth.head import head_proxy
 from naseview.testbed.synth.photo import Studio, draw_studio
@@ -145,6 +146,13 @@ def read_scan_landmarks(path: str | os.PathLike[str]
         raise NaseviewError(f"{path}: key 'landmarks' lacks {', '.join(missing)}; SPEC §8 "
                             "needs all 21 landmarks and both add helpers")
     pts = {k: _vector(path, f"landmarks.{k}", lms[k], 3) for k in (*LANDMARK_IDS, *HELPER_IDS)}
+    for a, b in (("al_l", "al_r"), ("g", "prn")):   # the size of the nose: mm, one face
+        d = float(np.linalg.norm(pts[a] - pts[b]))
+        if not plausible_distance(a, b, d):
+            raise NaseviewError(
+                f"{path}: key 'landmarks': {a}-{b} is {d:.3g} mm, not a nose's (about "
+                f"{typical_distance_mm(a, b):.0f} mm); give the landmarks in millimetres "
+                "and check that each is at its own point (SPEC §8)")
     return pts, R, t, data
 
 
@@ -225,6 +233,9 @@ def read_scan(scan: str | os.PathLike[str], landmarks: str | os.PathLike[str],
         V0, F = read_mesh(scan)
     else:
         raise NaseviewError(f"{scan}: --scan must be an .obj or .ply mesh")
+    if not _has_area(np.asarray(V0, np.float64), np.asarray(F, np.int64)):
+        raise NaseviewError(f"{scan}: no triangle of the scan has a non-zero area; "
+                            "re-export it as a triangle mesh of the face")
     if len(V0) > MAX_SCAN_VERTICES:
         raise NaseviewError(f"{scan}: {len(V0)} vertices, more than {MAX_SCAN_VERTICES}; "
                             "decimate the scan first")
@@ -250,6 +261,15 @@ def read_scan(scan: str | os.PathLike[str], landmarks: str | os.PathLike[str],
     return ScanFace(V, np.asarray(F, np.int64), uv, tex,
                     {k: pts[k] for k in LANDMARK_IDS}, {k: pts[k][None] for k in HELPER_IDS},
                     source)
+
+
+def _has_area(V: np.ndarray, F: np.ndarray) -> bool:
+    """Whether any triangle of (V, F) has an area above 1e-12 of the squared mesh size."""
+    if not len(F):
+        return False
+    size2 = float(np.ptp(V, axis=0).max()) ** 2
+    a = np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    return bool(size2 > 0 and (a > 1e-12 * size2).any())
 
 
 def _licence_line(scan: Path) -> str:
