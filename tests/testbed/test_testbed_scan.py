@@ -4,6 +4,7 @@ one-line errors; ``evaluate`` by region with the error colour map."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -63,6 +64,13 @@ def test_synth_scan_writes_a_case_with_the_scan_as_truth(scan_files, tmp_path, g
     assert np.allclose(tV, generic.mean - generic.mean[generic.landmark_vertices["g"]],
                        atol=1e-4)                             # back in the SPEC frame
     assert read_image(out / "front.jpg").shape[:2] == (256, 256)
+    named = ply.parent / "Doe_Jane_1970-01-01.ply"          # a scan named after its person
+    shutil.copy(ply, named)
+    assert main(["synth", str(tmp_path / "named"), "--scan", str(named), "--landmarks",
+                 str(lmf), "--size", "128", "--seed", "4"]) == 0
+    text = (tmp_path / "named" / "case.json").read_text()
+    assert "Doe" not in text and "1970" not in text
+    assert read_case(tmp_path / "named").id == case.id     # the id follows the geometry
 
 
 def _fails(capsys, argv: list[str]) -> str:
@@ -98,6 +106,20 @@ def test_synth_scan_bad_inputs_are_one_line_errors(scan_files, tmp_path, capsys)
                           str(tmp_path / "d.json")])
     assert "d.json" in err
     assert not (tmp_path / "x").exists()                      # nothing half-written
+
+
+@pytest.mark.parametrize(("flag", "value", "says"), [("--size", "100000", "64 to 4096 px"),
+                                                    ("--size", "32", "64 to 4096 px"),
+                                                    ("--seed", "-1", "integer >= 0")])
+def test_synth_arguments_out_of_range_are_one_line_errors(scan_files, tmp_path, capsys,
+                                                          flag, value, says) -> None:
+    ply, lmf, _ = scan_files
+    err = _fails(capsys, ["synth", str(tmp_path / "x"), "--scan", str(ply), "--landmarks",
+                          str(lmf), flag, value])
+    assert f"{flag} {value}" in err and says in err
+    err = _fails(capsys, ["synth", str(tmp_path / "y"), "--model", "generic", flag, value])
+    assert says in err
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 
 def test_synth_scan_refuses_landmarks_in_metres_and_a_mesh_without_area(

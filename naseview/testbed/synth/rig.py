@@ -36,11 +36,28 @@ from typing import Any
 import numpy as np
 
 from naseview.camera import Camera, look_at, rodrigues
+from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
 from naseview.landmarks import VIEW_LANDMARKS, VIEWS
 
 DEFAULT_SIZE = 1024
 """Photo width = height (px)."""
+
+SIZE_RANGE = (64, 4096)
+"""Smallest and largest photo size (px) a synthetic case is made at: below 64 px no nose
+is left to click; above 4096 px a case costs gigabytes and tells nothing 4096 does not."""
+
+
+def check_synth_arguments(size: int, seed: int, noise_px: float, image_noise: float) -> None:
+    """One-line errors for ``naseview synth`` arguments no case can be made with: the
+    photo size outside :data:`SIZE_RANGE`, a negative seed, a negative or infinite noise."""
+    lo, hi = SIZE_RANGE
+    if not lo <= size <= hi:
+        raise NaseviewError(f"--size {size}: photos are {lo} to {hi} px")
+    if seed < 0:
+        raise NaseviewError(f"--seed {seed}: the seed is an integer >= 0")
+    if not (noise_px >= 0 and image_noise >= 0 and math.isfinite(noise_px + image_noise)):
+        raise NaseviewError("--noise-px and --image-noise must be finite and >= 0")
 
 SIDE_YAW_BEHIND = 2.0
 """Degrees a profile camera may stand behind the true profile."""

@@ -28,7 +28,7 @@ Example
 
 from __future__ import annotations
 
-import math
+import hashlib
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -53,7 +53,7 @@ from naseview.stage1_landmarks.template import plausible_distance, typical_dista
 from naseview.testbed.synth.clicks import view_clicks
 from naseview.testbed.synth.head import head_proxy
 from naseview.testbed.synth.photo import Studio, draw_studio
-from naseview.testbed.synth.rig import DEFAULT_SIZE, sample_rig_points
+from naseview.testbed.synth.rig import DEFAULT_SIZE, check_synth_arguments, sample_rig_points
 from naseview.testbed.synth.skin import HAIR_RGB, hair_weight
 from naseview.testbed.synth.truth import view_boundaries
 
@@ -263,6 +263,13 @@ def read_scan(scan: str | os.PathLike[str], landmarks: str | os.PathLike[str],
                     source)
 
 
+def anonymous_scan_id(scan: ScanFace) -> str:
+    """8 hex digits from the scan's geometry: the same scan gives the same case ids, and
+    ``case.json`` (SPEC §3: an anonymised id) never carries the scan's file name, which is
+    often the person's; the file names stay in ``truth.json`` (``synth.scan``) only."""
+    return hashlib.sha256(np.ascontiguousarray(scan.V, np.float64).tobytes()).hexdigest()[:8]
+
+
 def _has_area(V: np.ndarray, F: np.ndarray) -> bool:
     """Whether any triangle of (V, F) has an area above 1e-12 of the squared mesh size."""
     if not len(F):
@@ -417,14 +424,12 @@ def synthesize_scan_case(out_dir: str | os.PathLike[str], scan: ScanFace, seed: 
     Returns:
         path of the written ``case.json`` (written last).
     Raises:
-        NaseviewError: ``size`` below 64 px or a negative noise.
+        NaseviewError: ``size``, ``seed`` or a noise out of range
+            (:func:`~naseview.testbed.synth.rig.check_synth_arguments`).
     """
     from naseview.testbed.synth.synthesize import random_streams
 
-    if size < 64:
-        raise NaseviewError(f"--size {size}: photos must be at least 64 px")
-    if not (noise_px >= 0 and image_noise >= 0 and math.isfinite(noise_px + image_noise)):
-        raise NaseviewError("--noise-px and --image-noise must be finite and >= 0")
+    check_synth_arguments(size, seed, noise_px, image_noise)
     out = Path(out_dir)
     rs = random_streams(seed)
     cams, rig_info = sample_rig_points(scan.landmarks, rs["rig"], size)
@@ -443,11 +448,10 @@ def synthesize_scan_case(out_dir: str | os.PathLike[str], scan: ScanFace, seed: 
         for name, pts in view_boundaries(curves, view, cams[view], depth).items():
             boundaries.setdefault(name, {})[view] = pts
     al = float(np.linalg.norm(scan.landmarks["al_l"] - scan.landmarks["al_r"]))
-    name = Path(scan.source["scan"]).stem
-    case = CaseData(root=out, id=f"scan-{name}-{seed}", views=views,
+    case = CaseData(root=out, id=f"scan-{anonymous_scan_id(scan)}-{seed}", views=views,
                     scale_mm={("al_l", "al_r"): round(al, 4)},
-                    notes=f"synthetic case of scan {scan.source['scan']}: naseview synth "
-                          f"--scan --seed {seed} --noise-px {noise_px:g} --size {size}")
+                    notes=f"synthetic case of a face scan: naseview synth --scan --seed "
+                          f"{seed} --noise-px {noise_px:g} --size {size}")
     rec = Reconstruction(
         landmarks=dict(scan.landmarks), cameras=cams, curves=curves,
         measurements=clinical_measurements(scan.landmarks, curves or None, scan.V, scan.F),

@@ -30,7 +30,12 @@ from naseview.meshio import export_mesh
 from naseview.reconstruction import Reconstruction
 from naseview.testbed.synth.clicks import view_clicks
 from naseview.testbed.synth.photo import draw_studio, render_photo
-from naseview.testbed.synth.rig import DEFAULT_SIZE, sample_identity, sample_rig
+from naseview.testbed.synth.rig import (
+    DEFAULT_SIZE,
+    check_synth_arguments,
+    sample_identity,
+    sample_rig,
+)
 from naseview.testbed.synth.scene import build_scene
 from naseview.testbed.synth.truth import helper_points, truth_curves, view_boundaries
 
@@ -44,15 +49,13 @@ def random_streams(seed: int) -> dict[str, np.random.Generator]:
     return {n: np.random.default_rng(s) for n, s in zip(STREAMS, seqs, strict=True)}
 
 
-def _check(model: FaceModel, size: int, noise_px: float, image_noise: float) -> None:
+def _check(model: FaceModel, size: int, seed: int, noise_px: float,
+           image_noise: float) -> None:
     """One-line errors for arguments no case can be made with."""
     if not model.curve_vertices:
         raise NaseviewError(f"face model {model.name!r}: no curve_vertices; synthetic "
                             "ground truth needs the SPEC §5 curve paths")
-    if size < 64:
-        raise NaseviewError(f"--size {size}: photos must be at least 64 px")
-    if noise_px < 0 or image_noise < 0:
-        raise NaseviewError("--noise-px and --image-noise must be >= 0")
+    check_synth_arguments(size, seed, noise_px, image_noise)
 
 
 def _synth_record(model: FaceModel, seed: int, noise_px: float, image_noise: float,
@@ -94,7 +97,7 @@ def synthesize_case(out_dir: str | os.PathLike[str], model: FaceModel, seed: int
     Returns:
         path of the written ``case.json``.
     """
-    _check(model, size, noise_px, image_noise)
+    _check(model, size, seed, noise_px, image_noise)
     out = Path(out_dir)
     rs = random_streams(seed)
     V, w = sample_identity(model, rs["identity"])
