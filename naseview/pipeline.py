@@ -478,10 +478,37 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
     return write_file_set(out_dir, output_files(result, out_dir, export), remove=stale)
 
 
+def check_not_foreign(out_dir: str | os.PathLike[str],
+                      case_dir: str | os.PathLike[str]) -> None:
+    """Before a run: ``out_dir`` is not the case folder (the result would lie among the
+    photos), and holds no mesh file a run writes or removes (``face.ply``, ``nose.stl``,
+    ...) unless it is a previous result (it has ``reconstruction.json``): a user's own
+    files are never overwritten or deleted.
+
+    Raises:
+        NaseviewError: naming the folder, the files and the fix.
+    """
+    out = Path(out_dir)
+    if not out.is_dir():
+        return
+    if os.path.realpath(out) == os.path.realpath(case_dir):
+        raise NaseviewError(f"{out}: is the case folder; give -o another folder (the "
+                            "result would lie among the photos)")
+    if (out / RECONSTRUCTION_FILE).exists():
+        return
+    mine = [f"{part}.{fmt}" for part in ("face", "nose") for fmt in MESH_FORMATS]
+    clash = [n for n in mine if (out / n).exists()]
+    if clash:
+        raise NaseviewError(f"{out}: holds {', '.join(clash)}, which no naseview result "
+                            f"there wrote (no {RECONSTRUCTION_FILE}); give -o a new or empty "
+                            "folder, or move those files away")
+
+
 def reconstruct_command(args: argparse.Namespace) -> int:
     """``naseview reconstruct CASE_DIR -o OUT_DIR [--stages 1,2,3] [--export stl]``."""
     stages = parse_stages(getattr(args, "stages", "1,2,3"))
     check_output_dir(args.output)
+    check_not_foreign(args.output, args.case_dir)
     case = read_case(args.case_dir)
 
     def progress(name: str, seconds: float) -> None:

@@ -259,6 +259,18 @@ def test_reconstruct_checks_the_output_folder_before_running(case_dir: Path, tmp
         assert err.startswith("naseview: error:") and "\n" not in err, err
         assert needle in err and "internal error" not in err
     assert a_file.read_text() == "not a folder"
+    foreign = tmp_path / "scans"
+    foreign.mkdir()
+    (foreign / "face.ply").write_bytes(b"the user's own scan")
+    (foreign / "nose.stl").write_bytes(b"a printed model")
+    for target, needle in ((foreign, "holds face.ply, nose.stl, which no naseview result"),
+                           (case_dir, "is the case folder")):
+        assert main(["reconstruct", str(case_dir), "-o", str(target), "--stages", "1"]) == 2
+        err = capsys.readouterr().err.strip()
+        assert needle in err and "\n" not in err, err
+    assert (foreign / "face.ply").read_bytes() == b"the user's own scan"
+    assert (foreign / "nose.stl").read_bytes() == b"a printed model"
+    assert not (case_dir / "reconstruction.json").exists()
 
 
 def test_reconstruct_on_a_full_disk_is_one_line_and_keeps_the_result(case_dir: Path,

@@ -71,6 +71,15 @@ def test_synth_scan_writes_a_case_with_the_scan_as_truth(scan_files, tmp_path, g
     text = (tmp_path / "named" / "case.json").read_text()
     assert "Doe" not in text and "1970" not in text
     assert read_case(tmp_path / "named").id == case.id     # the id follows the geometry
+    assert main(["synth", str(out), "--scan", str(ply), "--landmarks", str(lmf),
+                 "--size", "128"]) == 0                      # its own earlier case: redone
+    patient = tmp_path / "patient"
+    patient.mkdir()
+    (patient / "case.json").write_text('{"a real": "case"}')
+    for argv in (["--scan", str(ply), "--landmarks", str(lmf)], ["--model", "generic"]):
+        assert main(["synth", str(patient), *argv, "--size", "128"]) == 2
+    assert (patient / "case.json").read_text() == '{"a real": "case"}'
+    assert sorted(p.name for p in patient.iterdir()) == ["case.json"]
 
 
 def _fails(capsys, argv: list[str]) -> str:

@@ -13,6 +13,18 @@ from naseview.testbed.synth.synthesize import synthesize_case
 ICT_CREDIT = "ICT Face Model (USC Institute for Creative Technologies, MIT)"
 
 
+def check_synth_output(out: Path) -> None:
+    """``out`` is a new folder or one ``naseview synth`` wrote (it has ``truth.json``): a
+    photo case of a real patient there (``case.json`` without truth) is never replaced.
+
+    Raises:
+        NaseviewError: naming the folder and the fix.
+    """
+    if (out / "case.json").exists() and not (out / "truth.json").exists():
+        raise NaseviewError(f"{out}: holds a case.json that naseview synth did not write (no "
+                            "truth.json beside it); give a new or empty folder")
+
+
 def synth_command(args: argparse.Namespace) -> int:
     """One case into ``out_dir``, or ``--batch N`` cases ``out_dir/case-000..`` with seeds
     ``seed, seed + 1, ...``; prints each case directory (and the ICT credit).
@@ -32,6 +44,8 @@ def synth_command(args: argparse.Namespace) -> int:
     if batch < 0:
         raise NaseviewError("--batch must be >= 0")
     out = Path(args.out_dir)
+    for d in [out / f"case-{i:03d}" for i in range(batch)] if batch else [out]:
+        check_synth_output(d)
     if batch:
         for i in range(batch):
             path = synthesize_case(out / f"case-{i:03d}", model, seed + i, noise_px, size,
@@ -55,8 +69,10 @@ def _scan_command(args: argparse.Namespace) -> int:
     batch = int(args.batch or 0)
     if batch < 0:
         raise NaseviewError("--batch must be >= 0")
-    scan = read_scan(args.scan, args.landmarks, getattr(args, "texture", None))
     out = Path(args.out_dir)
+    for d in [out / f"case-{i:03d}" for i in range(batch)] if batch else [out]:
+        check_synth_output(d)
+    scan = read_scan(args.scan, args.landmarks, getattr(args, "texture", None))
     seeds = [int(args.seed) + i for i in range(batch)] if batch else [int(args.seed)]
     for i, seed in enumerate(seeds):
         path = synthesize_scan_case(out / f"case-{i:03d}" if batch else out, scan, seed,
