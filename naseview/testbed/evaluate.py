@@ -462,6 +462,10 @@ def _evaluate_case(d: Path, model: FaceModel | str | None, stages: tuple[int, ..
         result = reconstruct(case, model=model, stages=stages, params=params)
         run = CaseRun(d, case, truth, result, stages, maps_dir, ablate)
         info = _case_info(run)
+        info["notes"] = [f"no {name}: no {what}" for name, stage, what in (
+            ("truth_boundaries.json", 2, "boundary figures (Tables 4-5)"),
+            ("truth_face.ply", 3, "surface error or map")) if stage in stages
+            and not (d / name).is_file()]
         for sec in SECTIONS:
             if sec.stage in stages:
                 info[sec.key] = sec.per_case(run)
@@ -525,7 +529,8 @@ def evaluate_cases(case_dirs: Sequence[str | os.PathLike[str]],
         if progress:
             t1 = info.get("table1", {}).get("mean_error_mm", math.nan)
             progress(f"{d.name}: Table 1 mean error {_fmt(t1)} mm, stage times "
-                     + ", ".join(f"{k} {v:.2f} s" for k, v in result.stage_seconds.items()))
+                     + ", ".join(f"{k} {v:.2f} s" for k, v in result.stage_seconds.items())
+                     + "".join(f"; {n}" for n in info["notes"]))
     return {"stages": list(stages), "cases": cases, "failed": failed,
             "summary": _summary(cases, len(failed), stages)}
 
@@ -538,6 +543,8 @@ def format_report(report: dict[str, Any]) -> str:
     lines = [f"naseview evaluate: {conv['ok']} case(s) reconstructed, {conv['failed']} failed"]
     for f in report["failed"]:
         lines.append(f"  FAILED {f['case']}: {f['error']}")
+    for c in cases:
+        lines += [f"  note {c['case']}: {n}" for n in c.get("notes", [])]
     for sec in SECTIONS:
         if sec.key not in summary:
             continue

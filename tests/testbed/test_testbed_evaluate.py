@@ -135,6 +135,11 @@ def test_a_case_with_a_bad_truth_file_fails_alone(tiny_set: list[Path], tmp_path
     text = capsys.readouterr().out
     assert "1 failed" in text and "Table 1: landmark distance error (mm)" in text
     assert main(["evaluate", str(no_truth), "--stages", "1"]) == 2   # nothing evaluated
+    capsys.readouterr()
+    (bad_bounds / "truth_boundaries.json").unlink()          # figures left out: said so
+    assert main(["evaluate", str(bad_bounds), "--stages", "1,2"]) == 0
+    assert "note synthetic: no truth_boundaries.json: no boundary figures" in \
+        capsys.readouterr().out
 
 
 def test_the_nose_samples_are_the_same_whatever_ran_before() -> None:
