@@ -121,7 +121,14 @@ class SfmParams:
             fastest for ~21 landmarks x 4 photos) or ``"lsmr"`` (sparse Jacobian).
         presolve_lm: start the robust trf solve from a Levenberg-Marquardt solution with
             the squared loss (faster; same minimum).
-        tolerance: ``xtol``, ``ftol`` and ``gtol`` of ``least_squares``.
+        tolerance: ``xtol``, ``ftol`` and ``gtol`` of ``least_squares``. 1e-10: the
+            focal length and the camera distance trade off along a flat valley, and at
+            1e-6 the solve stopped anywhere in it (cameras 1 px / 1 mm apart, landmarks
+            2 um) with last-bit noise of numpy's sums, which depend on what ran before;
+            stage 3's discrete choices made that meshes 0.2 mm apart for one case run
+            twice in one process (james-a, generic base). At 1e-10 they are 0.007 px /
+            2e-5 mm apart and the meshes the same; stage 1 29 -> 34 ms median
+            (bench_stage1), the same Table 1.
         min_clicks_per_photo: fewer landmark clicks in a photo is an error.
         min_spread_ratio: a photo whose clicks are thinner than this fraction of their
             length (ratio of the 2D singular values) is "collinear" and an error.
@@ -181,7 +188,7 @@ class SfmParams:
     max_focal_factor: float = 8.0
     tr_solver: str = "exact"
     presolve_lm: bool = True
-    tolerance: float = 1e-6
+    tolerance: float = 1e-10
     min_clicks_per_photo: int = 6
     min_spread_ratio: float = 0.03
     max_rmse_px: float = 8.0
