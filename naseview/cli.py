@@ -94,7 +94,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=reconstruct_command)
 
     s = sub.add_parser("evaluate", help="accuracy against synthetic ground truth (paper "
-                                        "Tables 1, 2, 4, 5 and surface error)")
+                                        "Tables 1, 2, 4, 5 and surface error)",
+                       epilog="exit status: 0 every case evaluated, 1 some cases failed "
+                              "(each listed as FAILED with its reason), 2 none could be")
     s.add_argument("case_dirs", type=Path, nargs="+")
     s.add_argument("--json", action="store_true", help="print machine-readable JSON")
     s.add_argument("--model", default=None, help="base face model for stage 3")

@@ -38,7 +38,14 @@ from naseview.camera import Camera
 from naseview.case import Case, read_case
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel, load_face_model
-from naseview.fileio import check_output_dir, json_bytes, sha256_hex, write_file_set
+from naseview.fileio import (
+    COMMIT_PREFIX,
+    STAGING_PREFIX,
+    check_output_dir,
+    json_bytes,
+    sha256_hex,
+    write_file_set,
+)
 from naseview.geometry.region import submesh
 from naseview.measurements import clinical_measurements
 from naseview.meshio import MESH_FORMATS, mesh_bytes
@@ -482,8 +489,9 @@ def check_not_foreign(out_dir: str | os.PathLike[str],
                       case_dir: str | os.PathLike[str]) -> None:
     """Before a run: ``out_dir`` is not the case folder (the result would lie among the
     photos), and holds no mesh file a run writes or removes (``face.ply``, ``nose.stl``,
-    ...) unless it is a previous result (it has ``reconstruction.json``): a user's own
-    files are never overwritten or deleted.
+    ...) unless it is a previous result (it has ``reconstruction.json``, or the commit
+    folder of a run killed while moving its set in, which this run finishes): a user's
+    own files are never overwritten or deleted.
 
     Raises:
         NaseviewError: naming the folder, the files and the fix.
@@ -494,8 +502,9 @@ def check_not_foreign(out_dir: str | os.PathLike[str],
     if os.path.realpath(out) == os.path.realpath(case_dir):
         raise NaseviewError(f"{out}: is the case folder; give -o another folder (the "
                             "result would lie among the photos)")
-    if (out / RECONSTRUCTION_FILE).exists():
-        return
+    if (out / RECONSTRUCTION_FILE).exists() or any(
+            p.name.startswith((COMMIT_PREFIX, STAGING_PREFIX)) for p in out.iterdir()):
+        return                  # a previous result, or one a killed run left to finish
     mine = [f"{part}.{fmt}" for part in ("face", "nose") for fmt in MESH_FORMATS]
     clash = [n for n in mine if (out / n).exists()]
     if clash:

@@ -36,9 +36,13 @@ TEMPLATE_MM: dict[str, tuple[float, float, float]] = _with_right_side({
 
 
 PLAUSIBLE_FACTOR = 3.0
-"""A distance between two landmarks more than this many times shorter or longer than on
-the template is not a nose in millimetres (a wrong unit, cm or m, or the wrong points):
-human noses vary far less (alar width 25-50 mm against the template's 34)."""
+PLAUSIBLE_SLACK_MM = 5.0
+PLAUSIBLE_MIN_MM = 0.5
+"""A distance between two landmarks outside ``[typical / 3 - 5 mm, typical * 3 + 5 mm]``
+(``typical``: the template's), or under 0.5 mm, is not a nose in millimetres: a wrong
+unit (cm, m) or the wrong points. Long distances vary far less than 3x between noses
+(alar width 25-50 mm against the template's 34); short ones (k-r, md_l-md_r, ac-al, a few
+mm) vary by more than their own length, hence the slack."""
 
 
 def typical_distance_mm(a: str, b: str) -> float:
@@ -48,12 +52,18 @@ def typical_distance_mm(a: str, b: str) -> float:
 
 def plausible_distance(a: str, b: str, d_mm: float) -> bool:
     """Whether ``d_mm`` can be the distance between landmarks ``a`` and ``b`` of a nose in
-    millimetres: within :data:`PLAUSIBLE_FACTOR` of the template's (True for ids the
-    template lacks)."""
+    millimetres (:data:`PLAUSIBLE_FACTOR`; True for ids the template lacks).
+
+    >>> plausible_distance("al_l", "al_r", 34.5), plausible_distance("al_l", "al_r", 3.45)
+    (True, False)
+    >>> plausible_distance("k", "r", 2.2), plausible_distance("k", "r", 0.0022)
+    (True, False)
+    """
     if a not in TEMPLATE_MM or b not in TEMPLATE_MM:
-        return True
+        return d_mm >= PLAUSIBLE_MIN_MM
     typical = typical_distance_mm(a, b)
-    return typical / PLAUSIBLE_FACTOR <= d_mm <= typical * PLAUSIBLE_FACTOR
+    low = max(PLAUSIBLE_MIN_MM, typical / PLAUSIBLE_FACTOR - PLAUSIBLE_SLACK_MM)
+    return low <= d_mm <= typical * PLAUSIBLE_FACTOR + PLAUSIBLE_SLACK_MM
 
 
 def aligned_template(landmarks: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], float]:

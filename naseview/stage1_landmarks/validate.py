@@ -16,7 +16,11 @@ from naseview.landmarks import LANDMARK_IDS, VIEWS
 from naseview.stage1_landmarks.frame import PAIR_BASES
 from naseview.stage1_landmarks.params import SfmParams
 from naseview.stage1_landmarks.problem import Problem
-from naseview.stage1_landmarks.template import plausible_distance, typical_distance_mm
+from naseview.stage1_landmarks.template import (
+    TEMPLATE_MM,
+    plausible_distance,
+    typical_distance_mm,
+)
 
 
 class MirroredError(NaseviewError):
@@ -52,11 +56,12 @@ def _check_scale_units(case: Case) -> None:
     (:func:`.template.plausible_distance`): another unit is an error, not a tiny nose."""
     for (a, b), d in case.scale_mm.items():
         if not plausible_distance(a, b, d):
+            typical = (f" (typically about {typical_distance_mm(a, b):.0f} mm)"
+                       if a in TEMPLATE_MM and b in TEMPLATE_MM else "")
             raise NaseviewError(
                 f"{case_file(case)}: key 'scale_mm.{a}-{b}': {d:g} mm is not a distance "
-                f"between these landmarks on a nose (typically about "
-                f"{typical_distance_mm(a, b):.0f} mm); give the calliper distance in "
-                "millimetres (1 cm = 10 mm)")
+                f"between these landmarks on a nose{typical}; give the calliper distance "
+                "in millimetres (1 cm = 10 mm)")
 
 
 def _check_clicks(case: Case, v: str, params: SfmParams) -> None:

@@ -572,7 +572,8 @@ def _json_ready(obj: Any) -> Any:
 
 
 def evaluate_command(args: argparse.Namespace) -> int:
-    """``naseview evaluate CASE_DIRS... [--json] [--stages 1,2,3] [--model M]``."""
+    """``naseview evaluate CASE_DIRS... [--json] [--stages 1,2,3] [--model M]``: exit 0
+    when every case was evaluated, 1 when some failed (listed), 2 when none could be."""
     quiet = bool(getattr(args, "json", False))
     maps = getattr(args, "maps", None)
     if maps is not None:
@@ -589,4 +590,6 @@ def evaluate_command(args: argparse.Namespace) -> int:
     else:
         print()
         print(format_report(report))
-    return 0 if report["cases"] else 2
+    if not report["cases"]:
+        return 2                                    # nothing could be evaluated
+    return 1 if report["failed"] else 0             # some cases failed: a script sees it

@@ -273,6 +273,21 @@ def test_reconstruct_checks_the_output_folder_before_running(case_dir: Path, tmp
     assert not (case_dir / "reconstruction.json").exists()
 
 
+def test_a_first_run_killed_while_moving_in_is_finished_by_the_next(case_dir: Path,
+                                                                   tmp_path: Path):
+    out = tmp_path / "out"
+    assert main(["reconstruct", str(case_dir), "-o", str(out), "--stages", "1"]) == 0
+    commit = out / ".naseview-commit-k1"                # what a run killed after moving
+    commit.mkdir()                                      # face.ply in, before the index
+    (commit / ".manifest.json").write_text(json.dumps({"files": ["reconstruction.json"],
+                                                       "remove": []}))
+    (commit / "reconstruction.json").write_bytes((out / "reconstruction.json").read_bytes())
+    (out / "reconstruction.json").unlink()
+    (out / "face.ply").write_bytes(b"moved in by the killed run")
+    assert main(["reconstruct", str(case_dir), "-o", str(out), "--stages", "1"]) == 0
+    assert (out / "reconstruction.json").is_file() and _hidden(out) == []
+
+
 def test_reconstruct_on_a_full_disk_is_one_line_and_keeps_the_result(case_dir: Path,
                                                                     tmp_path: Path,
                                                                     monkeypatch, capsys):

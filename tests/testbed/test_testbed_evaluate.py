@@ -102,7 +102,7 @@ def test_evaluate_command_json_and_failed_case(tiny_set: list[Path], tmp_path: P
         v["landmarks"].pop("g", None)  # no origin: this case must fail, not the command
     (bad / "case.json").write_text(json.dumps(case))
     rc = main(["evaluate", str(tiny_set[0]), str(bad), "--json", "--stages", "1"])
-    assert rc == 0
+    assert rc == 1                                    # a script sees the failed case
     out = json.loads(capsys.readouterr().out)
     assert out["summary"]["converged"] == {"ok": 1, "failed": 1}
     assert "glabella" in out["failed"][0]["error"]
@@ -131,7 +131,7 @@ def test_a_case_with_a_bad_truth_file_fails_alone(tiny_set: list[Path], tmp_path
     assert "no-prn/truth.json: key 'landmarks' lacks prn" in errors["no-prn"]
     assert "truth_boundaries.json: key 'mid'" in errors["bad-bounds"]
     assert all("\n" not in e for e in errors.values())
-    assert main(["evaluate", str(no_truth), str(tiny_set[0]), "--stages", "1"]) == 0
+    assert main(["evaluate", str(no_truth), str(tiny_set[0]), "--stages", "1"]) == 1
     text = capsys.readouterr().out
     assert "1 failed" in text and "Table 1: landmark distance error (mm)" in text
     assert main(["evaluate", str(no_truth), "--stages", "1"]) == 2   # nothing evaluated
