@@ -68,6 +68,7 @@ from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
 from naseview.intake.guidance import HINT_MIN_CLICKS, Guidance, quick_stage1
 from naseview.intake.photos import PhotoInfo, decode_photo, encode_photo, photo_kind
 from naseview.landmarks import LANDMARK_IDS, VIEW_LANDMARKS, VIEWS
+from naseview.stage1_landmarks.template import TEMPLATE_MM, plausible_distance, typical_distance_mm
 
 log = logging.getLogger(__name__)
 
@@ -533,6 +534,10 @@ class AnnotationSession:
         if sum(1 for v in VIEWS if "g" in self.clicks[v]) < 2 and not self.missing_photos():
             out.append("click glabella g in at least two photos (front and a profile)")
         out += self._unclicked_scale_ends()
+        out += [f"the distance {a}-{b} of {d:g} mm is not a nose's (about "
+                f"{typical_distance_mm(a, b):.0f} mm); enter the calliper reading in mm"
+                for (a, b), d in self.scale_mm.items()
+                if a in TEMPLATE_MM and b in TEMPLATE_MM and not plausible_distance(a, b, d)]
         return out
 
     def _too_few_clicks(self) -> list[str]:

@@ -166,6 +166,11 @@ def test_case_written_and_readable(tmp_path: Path, photos):
     assert "al_l-al_r" in " ".join(s.problems())
     with pytest.raises(NaseviewError, match="al_l-al_r"):
         s.write_case(tmp_path / "case")
+    s.set_scale("al_l", "al_r", 3.3)                  # centimetres typed as mm
+    assert s.problems() == ["the distance al_l-al_r of 3.3 mm is not a nose's (about "
+                            "34 mm); enter the calliper reading in mm"]
+    with pytest.raises(NaseviewError, match="3.3 mm is not a nose's"):
+        s.write_case(tmp_path / "case")
     s.set_scale("al_l", "al_r", 33.0)
     assert s.problems() == []
     path = s.write_case(tmp_path / "case")
