@@ -544,8 +544,8 @@ def recover_file_sets(folder: str | os.PathLike[str], names: Iterable[str] = ())
             for left in folder.glob(f".{glob.escape(name)}.*.tmp"):
                 with contextlib.suppress(FileNotFoundError):
                     left.unlink()
-    except _Blocked as e:  # a folder in the way: name it, not the commit folder
-        raise NaseviewError(str(e)) from None
+    except _Blocked:  # a folder in the way: its own message names it, not the commit
+        raise
     except (OSError, ValueError, KeyError, TypeError, NaseviewError) as e:
         raise NaseviewError(f"{left}: left by an interrupted write and cannot be cleaned "
                             f"up ({one_line(e)}); delete it and run again") from None

@@ -467,6 +467,11 @@ def output_files(result: PipelineResult, out_dir: str | os.PathLike[str],
     return files
 
 
+MESH_FILES = tuple(f"{part}.{fmt}" for part in ("face", "nose") for fmt in MESH_FORMATS)
+"""Every mesh file name a run may write into its output folder (``face.ply``, ``nose.stl``,
+...): a run removes those of an earlier run that it does not write again."""
+
+
 def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
                   export: Iterable[str] = ()) -> list[Path]:
     """Write the SPEC §5 outputs of a pipeline run (:func:`output_files`), all or nothing.
@@ -481,8 +486,7 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
         NaseviewError: the folder is not writable or the disk is full (the previous
             result is then unchanged).
     """
-    stale = [f"{part}.{fmt}" for part in ("face", "nose") for fmt in MESH_FORMATS]
-    return write_file_set(out_dir, output_files(result, out_dir, export), remove=stale)
+    return write_file_set(out_dir, output_files(result, out_dir, export), remove=MESH_FILES)
 
 
 def check_not_foreign(out_dir: str | os.PathLike[str],
@@ -505,8 +509,7 @@ def check_not_foreign(out_dir: str | os.PathLike[str],
     if (out / RECONSTRUCTION_FILE).exists() or any(
             p.name.startswith((COMMIT_PREFIX, STAGING_PREFIX)) for p in out.iterdir()):
         return                  # a previous result, or one a killed run left to finish
-    mine = [f"{part}.{fmt}" for part in ("face", "nose") for fmt in MESH_FORMATS]
-    clash = [n for n in mine if (out / n).exists()]
+    clash = [n for n in MESH_FILES if (out / n).exists()]
     if clash:
         raise NaseviewError(f"{out}: holds {', '.join(clash)}, which no naseview result "
                             f"there wrote (no {RECONSTRUCTION_FILE}); give -o a new or empty "

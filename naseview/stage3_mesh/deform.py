@@ -100,8 +100,9 @@ class NoseDeformer:
         handle_vertex_ids: (H,) distinct vertex ids constrained by :meth:`solve`.
         params: :class:`RefineParams`: ``margin_mm`` builds the ring; the ARAP and
             smoothing fields are the default of every solve.
-        adjacency: optional ``vertex_adjacency(V, F, V_base)`` (edge lengths), when the
-            caller builds several deformers of one base (stage 3's silhouette rounds).
+        adjacency: optional ``vertex_adjacency(len(V_base), F, V_base)`` (edge
+            lengths), when the caller builds several deformers of one base (stage 3's
+            silhouette rounds).
     Raises:
         ValueError: repeated handle ids, or a handle in no triangle of the region.
     """

@@ -25,6 +25,19 @@ def check_synth_output(out: Path) -> None:
                             "truth.json beside it); give a new or empty folder")
 
 
+def _case_dirs(args: argparse.Namespace) -> list[Path]:
+    """The case folders of a run, each checked by :func:`check_synth_output`: ``OUT_DIR``
+    itself, or ``OUT_DIR/case-000..`` with ``--batch N``."""
+    batch = int(args.batch or 0)
+    if batch < 0:
+        raise NaseviewError("--batch must be >= 0")
+    out = Path(args.out_dir)
+    dirs = [out / f"case-{i:03d}" for i in range(batch)] if batch else [out]
+    for d in dirs:
+        check_synth_output(d)
+    return dirs
+
+
 def synth_command(args: argparse.Namespace) -> int:
     """One case into ``out_dir``, or ``--batch N`` cases ``out_dir/case-000..`` with seeds
     ``seed, seed + 1, ...``; prints each case directory (and the ICT credit).
@@ -40,20 +53,9 @@ def synth_command(args: argparse.Namespace) -> int:
     noise_px = float(args.noise_px)
     image_noise = float(args.image_noise)
     seed = int(args.seed)
-    batch = int(args.batch or 0)
-    if batch < 0:
-        raise NaseviewError("--batch must be >= 0")
-    out = Path(args.out_dir)
-    for d in [out / f"case-{i:03d}" for i in range(batch)] if batch else [out]:
-        check_synth_output(d)
-    if batch:
-        for i in range(batch):
-            path = synthesize_case(out / f"case-{i:03d}", model, seed + i, noise_px, size,
-                                   image_noise)
-            print(path.parent)
-    else:
-        path = synthesize_case(out, model, seed, noise_px, size, image_noise)
-        print(path.parent)
+    dirs = _case_dirs(args)
+    for i, d in enumerate(dirs):
+        print(synthesize_case(d, model, seed + i, noise_px, size, image_noise).parent)
     if model.name == "ict" or "ICT" in model.credit:
         print(f"face model: {ICT_CREDIT}")
     return 0
@@ -66,16 +68,10 @@ def _scan_command(args: argparse.Namespace) -> int:
     if getattr(args, "landmarks", None) is None:
         raise NaseviewError("--scan needs --landmarks LANDMARKS.json (SPEC §8: the 21 "
                             "landmarks and both add helpers in the SPEC frame)")
-    batch = int(args.batch or 0)
-    if batch < 0:
-        raise NaseviewError("--batch must be >= 0")
-    out = Path(args.out_dir)
-    for d in [out / f"case-{i:03d}" for i in range(batch)] if batch else [out]:
-        check_synth_output(d)
+    dirs = _case_dirs(args)
     scan = read_scan(args.scan, args.landmarks, getattr(args, "texture", None))
-    seeds = [int(args.seed) + i for i in range(batch)] if batch else [int(args.seed)]
-    for i, seed in enumerate(seeds):
-        path = synthesize_scan_case(out / f"case-{i:03d}" if batch else out, scan, seed,
+    for i, d in enumerate(dirs):
+        path = synthesize_scan_case(d, scan, int(args.seed) + i,
                                     float(args.noise_px), int(args.size),
                                     float(args.image_noise))
         print(path.parent)
