@@ -291,10 +291,11 @@ def read_truth_boundaries(path: Path) -> dict[str, dict[str, np.ndarray]]:
         out[name] = {}
         for view, pts in per_view.items():
             try:
-                P = np.asarray(pts, dtype=np.float64)
-            except (TypeError, ValueError):
-                P = np.zeros((0, 3))
-            if P.size and (P.ndim != 2 or P.shape[1] != 2 or not np.isfinite(P).all()):
+                P = np.asarray(pts, dtype=np.float64) if isinstance(pts, list) else None
+            except (TypeError, ValueError):              # not numbers, or ragged
+                P = None
+            if P is None or (P.size and (P.ndim != 2 or P.shape[1] != 2
+                                         or not np.isfinite(P).all())):
                 raise NaseviewError(f"{path}: key {name}.{view}: expected a list of [x, y] "
                                     "pixel points of finite numbers (SPEC §7)")
             out[name][view] = P.reshape(-1, 2)

@@ -12,12 +12,14 @@ from helpers import BASE_NOSE, write_projected_case
 from scipy.stats import t as student_t
 
 from naseview.cli import main
+from naseview.errors import NaseviewError
 from naseview.landmarks import TABLE1_DISTANCES
 from naseview.testbed.evaluate import (
     evaluate_cases,
     format_report,
     landmark_rmse_case,
     mean_ci95,
+    read_truth_boundaries,
     table1_case,
     table2_case,
 )
@@ -165,3 +167,13 @@ def test_the_nose_samples_are_the_same_whatever_ran_before() -> None:
     ambient_occlusion(V, F, np.ascontiguousarray(V[:50] + n), n, 97)
     np.testing.assert_array_equal(regions, region_samples(V, F, m.landmark_positions(V),
                                                           3000)[1])
+
+
+@pytest.mark.parametrize("points", ['"garbage"', "[[1, 2], [3]]", "[[1, 2, 3]]", "[[1, NaN]]"])
+def test_truth_boundary_points_that_are_not_xy_lists_are_refused(tmp_path: Path, points: str):
+    path = tmp_path / "truth_boundaries.json"
+    path.write_text('{"mid": {"left": ' + points.replace("NaN", '"x"') + "}}")
+    with pytest.raises(NaseviewError, match="key mid.left: expected a list of"):
+        read_truth_boundaries(path)
+    path.write_text('{"mid": {"left": [[1, 2.5]], "right": []}}')
+    assert read_truth_boundaries(path)["mid"]["left"].tolist() == [[1.0, 2.5]]
