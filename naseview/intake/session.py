@@ -530,14 +530,14 @@ class AnnotationSession:
         out = [f"the {v} photo is missing; upload it" for v in self.missing_photos()]
         if not self.scale_mm:
             out.append("enter the measured alar width al_l-al_r (calliper, mm)")
+        out += [f"the distance {a}-{b} of {d:g} mm is not a nose's (about "   # beside the
+                f"{typical_distance_mm(a, b):.0f} mm); enter the calliper reading in mm"
+                for (a, b), d in self.scale_mm.items()                    # entry it is about
+                if a in TEMPLATE_MM and b in TEMPLATE_MM and not plausible_distance(a, b, d)]
         out += self._too_few_clicks()
         if sum(1 for v in VIEWS if "g" in self.clicks[v]) < 2 and not self.missing_photos():
             out.append("click glabella g in at least two photos (front and a profile)")
         out += self._unclicked_scale_ends()
-        out += [f"the distance {a}-{b} of {d:g} mm is not a nose's (about "
-                f"{typical_distance_mm(a, b):.0f} mm); enter the calliper reading in mm"
-                for (a, b), d in self.scale_mm.items()
-                if a in TEMPLATE_MM and b in TEMPLATE_MM and not plausible_distance(a, b, d)]
         return out
 
     def _too_few_clicks(self) -> list[str]:
