@@ -62,13 +62,13 @@ from naseview.stage1_landmarks.single_view import one_photo_sight_lines
 from naseview.stage2_curves import CurveParams, CurvesResult, extract_curves
 from naseview.stage2_curves.mask import estimate_background, foreground_mask
 from naseview.stage3_mesh import RefineParams, RefineResult, refine
+from naseview.stage3_mesh.profile_band import profile_box
 from naseview.stage3_mesh.sightline import Placed, SightLine, place_one_photo_landmarks
 from naseview.stage3_mesh.silhouette import (
     OUTLINE_CURVES,
     SILHOUETTE_VIEWS,
     Silhouette,
     curve_piece,
-    nose_box,
     silhouette_from_curve,
     silhouette_from_mask,
 )
@@ -203,7 +203,7 @@ def run_stage3(result: PipelineResult, case: Case, model: FaceModel,
         sils: list[Silhouette] = []
         p = params or RefineParams()
         if p.silhouette_rounds:
-            sils = photo_silhouettes(case, rec, curve_params)
+            sils = photo_silhouettes(case, rec, curve_params, p)
             sils += outline_silhouettes(result.curves, rec, p.outline_curves)
         return refine(model, rec, params, sils)
 
@@ -211,19 +211,22 @@ def run_stage3(result: PipelineResult, case: Case, model: FaceModel,
 
 
 def photo_silhouettes(case: Case, rec: Reconstruction,
-                      curve_params: CurveParams | None = None) -> list[Silhouette]:
+                      curve_params: CurveParams | None = None,
+                      refine_params: RefineParams | None = None) -> list[Silhouette]:
     """The profile photos' silhouettes near the nose for stage 3's contour handles
     (:mod:`~naseview.stage3_mesh.silhouette`): stage 2's background model and foreground
     mask, with the same thresholds as stage 2 (``curve_params``' mask fields), in a box
-    around the projected nose landmarks, for each of ``SILHOUETTE_VIEWS`` whose border is
-    a uniform background."""
+    around the projected nose landmarks grown to the profile band of ``refine_params``
+    (:func:`~naseview.stage3_mesh.profile_band.profile_box`: glabella to upper lip), for
+    each of ``SILHOUETTE_VIEWS`` whose border is a uniform background."""
     p = curve_params or CurveParams()
+    rp = refine_params or RefineParams()
     out = []
     for v in SILHOUETTE_VIEWS:
         cam = rec.cameras.get(v)
         if v not in case.views or cam is None:
             continue
-        box = nose_box(cam, rec.landmarks)
+        box = profile_box(cam, rec.landmarks, rp.profile_above_g_mm, rp.profile_below_sn_mm)
         if box is None:
             continue
         img = case.load_image(v)

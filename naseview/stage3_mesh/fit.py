@@ -35,6 +35,8 @@ from naseview.stage3_mesh.curve_fractions import (
     sub_rows,
 )
 from naseview.stage3_mesh.params import RefineParams
+from naseview.stage3_mesh.profile_band import matched_region
+from naseview.stage3_mesh.silhouette import Silhouette, contour_targets, edge_faces
 
 
 @dataclass
@@ -176,6 +178,55 @@ def _alternate(model: FaceModel, fr: _FitRows, params: RefineParams, K: int
     return w, sim
 
 
+SILHOUETTE_FIT_FIXED_MM = 1e-3
+"""The fit's silhouette rounds stop once a round matches the same vertices to targets
+within this (mm) of the round before."""
+
+
+def _fit_silhouettes(model: FaceModel, fr: _FitRows, params: RefineParams, K: int,
+                     w: np.ndarray, sim: _Similarity, silhouettes: Sequence[Silhouette],
+                     landmarks: Mapping[str, np.ndarray]) -> tuple[np.ndarray, _Similarity]:
+    """The landmark fit carried on with the profile photos' silhouettes (issue 23).
+
+    Each round (``params.fit_silhouette_rounds`` at most, until a round matches what
+    the round before did) finds the fitted face's occluding contour on the nose and
+    the profile band (:func:`~naseview.stage3_mesh.profile_band.matched_region`:
+    glabella and upper lip near the midline) and matches it to each photo's silhouette
+    (:func:`~naseview.stage3_mesh.silhouette.contour_targets`, each match at most
+    ``params.silhouette_max_mm``, the camera's shift taken out); the matches join the
+    landmark and sub-landmark rows as rows of weight ``1 / fit_silhouette_sigma_mm^2``
+    and the similarity and coefficients are solved again. The correspondences slide:
+    a contour vertex is whichever vertex lies on the contour now, not a fixed one.
+    """
+    F = np.asarray(model.faces, np.int64)
+    ed = edge_faces(F)
+    basis, mean = model.basis[:K], model.mean
+    last: tuple[np.ndarray, np.ndarray] | None = None
+    for _ in range(params.fit_silhouette_rounds):
+        V = _fitted_face(model, w, sim)
+        band = matched_region(model, V, landmarks, params)
+        ids, tg, _ = contour_targets(V, F, silhouettes, band, np.zeros((0, 3)),
+                                     params.silhouette_spacing_mm, params.silhouette_max_mm,
+                                     ed, params.silhouette_detrend)
+        if not len(ids) or (last is not None and np.array_equal(ids, last[0])
+                            and np.abs(tg - last[1]).max() <= SILHOUETTE_FIT_FIXED_MM):
+            break
+        last = (ids, tg)
+        Vm = ((V - sim.t) @ sim.R) / sim.s                       # the model frame
+        Ii, Jj, Aa = _row_points(fr, sub_positions(model, Vm, fr.rows) if fr.rows else [])
+        n = len(Ii)
+        Ii, Jj = np.r_[Ii, ids], np.r_[Jj, ids]
+        Aa = np.r_[Aa, np.zeros(len(ids))]
+        Y = np.r_[fr.Y[:n], tg]
+        wt = np.r_[fr.weights[:n],
+                   np.full(len(ids), 1.0 / params.fit_silhouette_sigma_mm ** 2)]
+        X = (1 - Aa)[:, None] * Vm[Ii] + Aa[:, None] * Vm[Jj]
+        sim = _Similarity(*umeyama(X, Y, params.fit_scale, wt))
+        if K:
+            w = _coefficients(basis, mean, (Ii, Jj, Aa), Y, wt, sim)
+    return w, sim
+
+
 def _clamp(model: FaceModel, w: np.ndarray, limit_sd: float) -> tuple[np.ndarray, list[str]]:
     """Coefficients beyond ``limit_sd`` clamped, with a warning naming the first modes."""
     if not len(w) or np.abs(w).max() <= limit_sd:
@@ -238,7 +289,8 @@ def fit_face_model(model: FaceModel, landmarks: Mapping[str, np.ndarray],
                    params: RefineParams | None = None,
                    ad_landmarks: np.ndarray | None = None,
                    ad_landmark_tags: Sequence[AdLandmarkTag] | None = None,
-                   verified: Collection[str] = ()) -> BaseFit:
+                   verified: Collection[str] = (),
+                   silhouettes: Sequence[Silhouette] = ()) -> BaseFit:
     """Fit the morphable model to 3D landmarks: the base face of eq. 18.
 
     Minimises, alternating a few times between the two unknowns,
@@ -260,6 +312,9 @@ def fit_face_model(model: FaceModel, landmarks: Mapping[str, np.ndarray],
             tags (see :func:`~naseview.stage3_mesh.correspondences.correspondences`).
         verified: ids whose position two or more photos agree on (only the wording of
             the misfit warning depends on it).
+        silhouettes: the photos' silhouettes; the profile ones (``outline``) join the
+            fit for ``params.fit_silhouette_rounds`` rounds (:func:`_fit_silhouettes`)
+            when ``params.uses_profile_band`` (a model rich enough to follow them).
     Returns:
         :class:`BaseFit` with the fitted face in the SPEC frame.
     Raises:
@@ -269,6 +324,9 @@ def fit_face_model(model: FaceModel, landmarks: Mapping[str, np.ndarray],
     K = model.n_modes if params.n_modes is None else max(0, min(params.n_modes, model.n_modes))
     fr = _fit_rows(model, landmarks, params, ad_landmarks, ad_landmark_tags)
     w, sim = _alternate(model, fr, params, K)
+    profiles = [s for s in silhouettes if s.outline]
+    if profiles and params.fit_silhouette_rounds and params.uses_profile_band(model.n_modes):
+        w, sim = _fit_silhouettes(model, fr, params, K, w, sim, profiles, landmarks)
     w, warnings = _clamp(model, w, params.coeff_limit_sd)
     V = _fitted_face(model, w, sim)
     residuals = {k: float(np.linalg.norm(V[v] - y))

@@ -55,6 +55,13 @@ _RANGES: dict[str, tuple[Range, str]] = {
     "sight_iterations": _R(0, 20, True, True, "fit / line-of-sight placement rounds of "
                                               "one-photo landmarks (0: stage 1's)"),
     "arap_iterations": _R(0, 10_000, True, True, "the ARAP iterations"),
+    "fit_silhouette_rounds": _R(0, 50, True, True, "rounds of the profile silhouettes in "
+                                                   "the model fit (0: landmarks only)"),
+    "fit_silhouette_sigma_mm": _R(0, 50, False, False, "the expected silhouette match "
+                                                       "error in the fit, mm"),
+    "profile_above_g_mm": _R(0, 60, True, False, "the profile band's reach above g, mm"),
+    "profile_below_sn_mm": _R(0, 40, True, False, "the profile band's reach below sn, mm"),
+    "profile_half_width_mm": _R(0, 60, True, False, "the profile band's half-width, mm"),
     "arap_tol_mm": _R(0, 1, True, False, "the ARAP stopping step, mm"),
     "arap_anderson": _R(0, 50, True, True, "the Anderson memory (0: plain ARAP)"),
     "arap_warn_mm": _R(0, math.inf, False, False, "the last ARAP step that warns, mm"),
@@ -211,6 +218,18 @@ class RefineParams:
             scan-james 0.591 -> 0.584 (ICT), 0.646 -> 0.639 (generic), ICT->generic
             0.851 -> 0.846, the rest within +-0.002; the tip piece ``"bottom_tip"`` made
             james-a worse (0.637 -> 0.658) and is left out.
+        fit_silhouette_rounds: rounds in which the model fit (eq. 18) also matches the
+            profile photos' silhouettes over the profile band (issue 23,
+            :func:`~naseview.stage3_mesh.fit.fit_face_model`): the base face is fitted
+            to the evidence, not to the 21 landmark vertices alone (0: landmarks only).
+        fit_silhouette_sigma_mm: the expected error of one silhouette match in that fit
+            (its rows weigh ``1 / sigma^2`` beside the landmarks' ``fit_sigma_mm``).
+        profile_above_g_mm, profile_below_sn_mm, profile_half_width_mm: the profile
+            band (:func:`~naseview.stage3_mesh.profile_band.profile_band`): the face near
+            the midline from above g (the glabella, read by the nasofrontal angle) to
+            below sn (the upper lip, read by the nasolabial angle) whose outline the
+            profile photos show; matched in the fit and in the silhouette rounds, so
+            the deformed region grows over it.
 
     Raises:
         NaseviewError: a value outside its range (the message names the field and range).
@@ -254,6 +273,12 @@ class RefineParams:
     silhouette_detrend: bool = True
     mid_handles: bool | None = None
     outline_curves: tuple[str, ...] = ()
+    fit_silhouette_rounds: int = 3
+    fit_silhouette_sigma_mm: float = 1.0
+    profile_above_g_mm: float = 10.0
+    profile_below_sn_mm: float = 15.0
+    profile_half_width_mm: float = 12.0
+    profile_band_used: bool | None = None
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -268,7 +293,7 @@ class RefineParams:
                 check_names("RefineParams", f.name, value, tuple(OUTLINE_CURVES))
             elif f.name == "handle_landmarks":
                 check_names("RefineParams", f.name, value, LANDMARK_IDS)
-            elif f.name == "mid_handles" and value is None:
+            elif f.name in ("mid_handles", "profile_band_used") and value is None:
                 pass                                    # automatic, per face model
             else:
                 check_flag("RefineParams", f.name, value)
@@ -281,3 +306,12 @@ class RefineParams:
             return self.mid_handles
         used = model_modes if self.n_modes is None else min(self.n_modes, model_modes)
         return used < len(LANDMARK_IDS)
+
+    def uses_profile_band(self, model_modes: int) -> bool:
+        """Whether the fit and the silhouette rounds match the profile band beyond the
+        nose (:attr:`profile_band_used`; ``None``: with a face model rich enough to
+        follow the profile, the one that drops the mid-curve handles,
+        :meth:`keeps_mid_handles`)."""
+        if self.profile_band_used is not None:
+            return self.profile_band_used
+        return not self.keeps_mid_handles(model_modes)

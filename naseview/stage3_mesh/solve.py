@@ -35,7 +35,7 @@ Example
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import igl
 import numpy as np
@@ -51,6 +51,7 @@ from naseview.stage3_mesh.curve_fractions import AdLandmarkTag
 from naseview.stage3_mesh.deform import DeformReport, NoseDeformer, deform_region
 from naseview.stage3_mesh.fit import BaseFit, fit_face_model
 from naseview.stage3_mesh.params import RefineParams
+from naseview.stage3_mesh.profile_band import matched_region
 from naseview.stage3_mesh.result import RefineResult
 from naseview.stage3_mesh.silhouette import Silhouette, contour_targets, edge_faces
 from naseview.stage3_mesh.warp import smooth_warp
@@ -250,21 +251,24 @@ before, their targets within this (mm): the rounds have reached their fixed poin
 
 
 def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
-                       held: Correspondences, silhouettes: Sequence[Silhouette],
+                       held: Correspondences, landmarks: Mapping[str, np.ndarray],
+                       silhouettes: Sequence[Silhouette],
                        params: RefineParams, seconds: dict[str, float],
                        adjacency: sp.csr_matrix
                        ) -> tuple[np.ndarray, np.ndarray, NoseDeformer | None,
                                   DeformReport | None, Correspondences] | None:
     """``params.silhouette_rounds`` rounds: the nose's occluding contour in each photo of
     ``silhouettes`` matched to the photo's silhouette and added as hard handles, solved
-    again from the base (:mod:`~naseview.stage3_mesh.silhouette`; ``adjacency`` the
-    base's ``vertex_adjacency``). None when no contour vertex matched; else (V, region,
+    again from the base; the contour matched is the nose's and the profile band's
+    (:func:`~naseview.stage3_mesh.profile_band.matched_region`: glabella to upper lip),
+    so the deformed region grows over the band where a match holds it
+    (:mod:`~naseview.stage3_mesh.silhouette`; ``adjacency`` the base's
+    ``vertex_adjacency``). None when no contour vertex matched; else (V, region,
     deformer, report, handles)."""
     t = time.perf_counter()
     F = np.asarray(model.faces, np.int64)
     nose = np.asarray(model.nose_vertices, np.int64)
-    movable = np.zeros(len(V), bool)
-    movable[nose] = True
+    movable = matched_region(model, base, landmarks, params)
     movable[held.vertex_ids] = False
     ed = edge_faces(F)
     out = None
@@ -324,7 +328,7 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
     sub = sublandmarks(reconstruction)
     t0 = time.perf_counter()
     fit = fit_face_model(model, landmarks, params, *sub,
-                         verified=_verified_landmarks(reconstruction))
+                         verified=_verified_landmarks(reconstruction), silhouettes=silhouettes)
     t1 = time.perf_counter()
     base, handles, cw = warped_base(model, fit, landmarks, sub, params)
     t2 = time.perf_counter()
@@ -355,7 +359,8 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
             V, region, deformer, report = _deform(model, base, region, held, params,
                                                   seconds, adj)
     if params.silhouette_rounds and silhouettes and deformer is not None:
-        sil = _silhouette_rounds(model, base, V, held, silhouettes, params, seconds, adj)
+        sil = _silhouette_rounds(model, base, V, held, landmarks, silhouettes, params,
+                                 seconds, adj)
         if sil is not None:
             V, region, deformer, report, held = sil
     handles = held

@@ -15,8 +15,10 @@ closest triangle (barycentric coordinates) on the rest shape and takes the baryc
 mean of the corners' displacements (:meth:`ManoeuvrePlan.landmark_offsets`), so it stays
 on the displaced surface.
 
-The fields fade to zero within the nose's own size; the alar base and radix fields fade
-into the cheek and the glabella, which the model's nose region may not reach:
+The fields fade to zero within the nose's own size; the fields of :data:`NOSE_ONLY` are
+cut to the nose region (a lip that turns back under a long columella can come within a
+field's reach: the columella set-back must not move the lip); the alar base and radix
+fields fade into the cheek and the glabella, which the model's nose region may not reach:
 :attr:`ManoeuvrePlan.region_ids` (the nose region plus those fade bands) are the vertices
 that can move.
 """
@@ -51,6 +53,10 @@ NEEDS: dict[str, tuple[str, ...]] = {
     "columella_setback": ("n", "prn", "c", "sn"),
 }
 """The landmarks each manoeuvre needs."""
+
+NOSE_ONLY: frozenset[str] = frozenset({"hump_reduction", "tip_projection", "tip_narrowing",
+                                      "columella_setback"})
+"""Manoeuvres that move the nose region's vertices only."""
 
 SUPPORT_EPS = 1e-12
 """Weights at or below this are outside a field's support."""
@@ -112,6 +118,8 @@ class ManoeuvrePlan:
             else:
                 U = builders[m](fr, P)
                 idx = np.flatnonzero(np.abs(U).max(axis=1) > SUPPORT_EPS)
+                if m in NOSE_ONLY:
+                    idx = np.intersect1d(idx, self.nose_ids)
                 self._fields[m] = (idx, U[idx])
             support.append(idx)
         self.region_ids: np.ndarray = np.unique(np.concatenate(support)).astype(np.int64)
