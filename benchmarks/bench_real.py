@@ -64,12 +64,19 @@ from _shared import use_shared_ict
 
 from naseview.case import Case, read_case
 from naseview.facemodel import FaceModel, load_face_model
-from naseview.measurements import MEASUREMENT_INFO, clinical_measurements
+from naseview.measurements import MEASUREMENT_INFO
 from naseview.meshio import read_mesh
 from naseview.pipeline import PipelineParams, PipelineResult, reconstruct
 from naseview.reconstruction import read_reconstruction
 from naseview.stage3_mesh import RefineParams
-from naseview.testbed.clinical import HEADLINE, MAE_TARGETS, SHORT, measurement_errors
+from naseview.testbed.clinical import (
+    HEADLINE,
+    MAE_TARGETS,
+    SHORT,
+    TruthMeasurements,
+    measurement_errors,
+    truth_measurements,
+)
 from naseview.testbed.evaluate import landmark_rmse_case, table1_case
 from naseview.testbed.surface import nose_surface_samples, surface_error
 
@@ -147,13 +154,15 @@ class Row:
     seconds: list[float] = field(default_factory=list)
     measurements: list[dict[str, Any]] = field(default_factory=list)
 
-    def errors(self, name: str) -> np.ndarray:
+    def errors(self, name: str, key: str = "measurements") -> np.ndarray:
         """(cases,) signed error of measurement ``name`` (NaN where one side lacks it)."""
-        return np.array([m["measurements"].get(name, {}).get("error", math.nan)
+        return np.array([m.get(key, {}).get(name, {}).get("error", math.nan)
                          for m in self.measurements], float)
 
-    def mae(self, name: str) -> float:
-        e = self.errors(name)
+    def mae(self, name: str, key: str = "measurements") -> float:
+        """Mean absolute error of ``name`` over the cases (``key``: ``"measurements"``, the
+        SPEC §6 figure, or ``"in_stage1_frame"``)."""
+        e = self.errors(name, key)
         e = e[np.isfinite(e)]
         return float(np.abs(e).mean()) if len(e) else math.nan
 
@@ -215,7 +224,7 @@ class Truth:
     V: np.ndarray
     F: np.ndarray
     samples: np.ndarray
-    values: dict[str, float]
+    measured: TruthMeasurements
 
 
 def _truth(d: Path) -> Truth:
@@ -225,7 +234,7 @@ def _truth(d: Path) -> Truth:
     return Truth(t.landmarks, curves, V, F,
                  nose_surface_samples(V, F, t.landmarks, source=str(d / "truth.json"),
                                       mesh_source=str(d / "truth_face.ply")),
-                 clinical_measurements(t.landmarks, curves or None, V, F))
+                 truth_measurements(V, F, t.landmarks, curves))
 
 
 def _params(kw: dict[str, Any]) -> PipelineParams | None:
@@ -298,7 +307,7 @@ def measure(runner: Runner, spec: SetSpec, base: str, params: PipelineParams) ->
         row.seconds.append(secs)
         row.measurements.append(measurement_errors(
             truth.V, truth.F, truth.landmarks, res.face_vertices, res.faces, rec.landmarks,
-            rec.curves, truth.curves, truth_values=truth.values))
+            rec.curves, truth.curves, truth=truth.measured))
     return row
 
 
@@ -418,6 +427,46 @@ def clinical_table(rows: dict[tuple[str, str], Row], sets: list[SetSpec]) -> lis
     return lines
 
 
+FRAME_NAMES = ("tip_rotation", "radix_height", "tip_projection")
+"""Headline measurements that read the frame's vertical (``naseview.testbed.clinical``)."""
+
+
+def frame_table(rows: dict[tuple[str, str], Row], sets: list[SetSpec]) -> list[str]:
+    """The measurements that read the vertical, with the truth in its own frame (SPEC §6,
+    as above) and turned into stage 1's frame (+y from sn towards g, as every
+    reconstruction's), per real case on the first base and pooled: how much of their
+    error is the convention of the vertical."""
+    head = (f"{'case':<24}{'base':<9}{'tilt':>7}"
+            + "".join(f"{SHORT[n] + ' ' + k:>17}" for n in FRAME_NAMES
+                      for k in ("SPEC", "stage1")))
+    lines = [head, "-" * len(head)]
+    for spec in sets:
+        if not spec.kind.startswith("real") and spec.kind != "in-model":
+            continue
+        base = spec.bases[0]
+        r = rows[(spec.name, base)]
+        tilt = [m.get("frame_tilt_deg", math.nan) for m in r.measurements]
+        if len(r.ids) == 1:
+            cells = "".join(f"{r.errors(n, k)[0]:>+17.2f}" for n in FRAME_NAMES
+                            for k in ("measurements", "in_stage1_frame"))
+            lines.append(f"{r.ids[0]:<24}{base:<9}{tilt[0]:>7.1f}{cells}")
+        else:
+            cells = "".join(f"{r.mae(n, k):>17.2f}" for n in FRAME_NAMES
+                            for k in ("measurements", "in_stage1_frame"))
+            lines.append(f"{spec.name + ' MAE':<24}{base:<9}{np.mean(tilt):>7.1f}{cells}")
+    for base, pooled in _pooled(rows, sets).items():
+        tilt = [m.get("frame_tilt_deg", math.nan) for m in pooled.measurements]
+        cells = "".join(f"{pooled.mae(n, k):>17.2f}" for n in FRAME_NAMES
+                        for k in ("measurements", "in_stage1_frame"))
+        lines.append(f"{f'real {len(pooled.ids)} MAE':<24}{base:<9}{np.mean(tilt):>7.1f}"
+                     f"{cells}")
+    lines.append("tilt: degrees between the truth file's +y and stage 1's (sn -> g) on the "
+                 "same truth landmarks; SPEC: error against the truth as the files give it "
+                 "(the table above); stage1: against the truth turned into stage 1's frame. "
+                 "A case row holds signed errors, a MAE row mean absolute ones (deg, mm)")
+    return lines
+
+
 def _pooled(rows: dict[tuple[str, str], Row], sets: list[SetSpec]) -> dict[str, Row]:
     """Base -> the real photo cases (james-a,b, lps-a,b) run, pooled, when all four ran."""
     names = {s.name for s in sets}
@@ -443,13 +492,13 @@ def _row_json(r: Row) -> dict[str, Any]:
         "cases": [{"case": cid, "surface_mean_mm": r.mean[i], "surface_p95_mm": r.p95[i],
                    "landmark_rmse_mm": r.rmse[i], "worst_landmark": list(r.worst[i]),
                    "table1_mm": r.table1[i], "seconds": r.seconds[i],
-                   "measurements": r.measurements[i]["measurements"],
-                   "profile": r.measurements[i]["profile"]}
+                   **r.measurements[i]}
                   for i, cid in enumerate(r.ids)],
         "surface_mean_mm": float(np.mean(r.mean)), "surface_p95_mm": float(np.mean(r.p95)),
         "landmark_rmse_mm": float(np.mean(r.rmse)), "table1_mm": float(np.mean(r.table1)),
         "seconds": float(np.mean(r.seconds)),
         "mae": {n: r.mae(n) for n in names},
+        "mae_in_stage1_frame": {n: r.mae(n, "in_stage1_frame") for n in names},
     }
 
 
@@ -537,6 +586,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(main_table(rows, sets)), flush=True)
     print()
     print("\n".join(clinical_table(rows, sets)), flush=True)
+    print()
+    print("\n".join(frame_table(rows, sets)), flush=True)
     report: dict[str, Any] = {
         "sets": {s.name: {"kind": s.kind, "bases": {b: _row_json(rows[(s.name, b)])
                                                      for b in s.bases}} for s in sets},

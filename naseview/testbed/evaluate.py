@@ -450,13 +450,15 @@ def measurements_case(run: CaseRun) -> dict[str, Any]:
 
 
 def _measurements_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
-    return summarize_errors([c for c in cases if c])
+    have = [c for c in cases if c]
+    return {"errors": summarize_errors(have),
+            "in_stage1_frame": summarize_errors(have, "in_stage1_frame")}
 
 
 def _measurements_format(cases: list[dict[str, Any]], summ: dict[str, Any],
                          ids: list[str]) -> list[str]:
     have = [(i, c) for i, c in zip(ids, cases, strict=True) if c]
-    return format_errors([c for _, c in have], summ, [i for i, _ in have])
+    return format_errors([c for _, c in have], summ["errors"], [i for i, _ in have])
 
 
 SECTIONS: list[Section] = [

@@ -14,6 +14,7 @@ import pytest
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel, load_face_model
 from naseview.geometry.mesh import face_normals
+from naseview.landmarks import LANDMARK_IDS
 from naseview.measurements import midline_plane
 from naseview.meshio import read_mesh
 from naseview.reconstruction import read_reconstruction
@@ -155,9 +156,35 @@ def test_evaluate_on_a_whole_head_case_is_sane(lps_report: dict[str, Any]) -> No
     assert 100 < meas["nasolabial_angle"]["truth"] < 140
     assert 115 < meas["nasofrontal_angle"]["truth"] < 150
     assert {p["source"] for p in case["measurements"]["profile"].values()} == {"mesh"}
-    summ = lps_report["summary"]["measurements"]
+    assert 3 < case["measurements"]["frame_tilt_deg"] < 8           # lps's +y vs sn -> g
+    s1 = lps_report["summary"]["measurements"]["in_stage1_frame"]["tip_rotation"]
+    assert s1["n"] == 1 and math.isfinite(s1["mae"])
+    summ = lps_report["summary"]["measurements"]["errors"]
     assert summ["nasolabial_angle"]["mae"] == pytest.approx(
         abs(meas["nasolabial_angle"]["error"]))
     text = format_report(lps_report)
     assert "Clinical measurement error" in text and "nasolabial_angle *" in text
     assert "lps-a" in text
+
+
+def test_the_frame_convention_is_told_apart_from_the_shape(generic_truth) -> None:
+    """The same face, its truth kept in a frame whose +y is not stage 1's (sn -> g): the
+    measurements that read the vertical differ by the tilt in the SPEC §6 figure and not
+    at all with the truth turned into stage 1's frame; angles between profile lines and
+    distances agree either way."""
+    from naseview.stage1_landmarks import anatomical_frame
+
+    _, V, F, lm = generic_truth
+    o, R = anatomical_frame({k: v for k, v in lm.items() if k in LANDMARK_IDS})
+    V1 = (V - o) @ R.T                                         # as a reconstruction's
+    lm1 = {k: R @ (v - o) for k, v in lm.items()}
+    e = measurement_errors(V, F, lm, V1, F, lm1)
+    assert e["frame_tilt_deg"] > 1.0
+    spec, s1 = e["measurements"], e["in_stage1_frame"]
+    assert abs(spec["tip_rotation"]["error"]) > 1.0
+    for name in ("tip_rotation", "radix_height", "tip_projection", "nasolabial_angle",
+                 "nasal_length"):
+        assert s1[name]["error"] == pytest.approx(0.0, abs=1e-6), name
+    for name in ("nasolabial_angle", "nasal_length"):
+        assert spec[name]["error"] == pytest.approx(0.0, abs=0.05), name
+    assert summarize_errors([e], "in_stage1_frame")["tip_rotation"]["mae"] < 1e-6
