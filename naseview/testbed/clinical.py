@@ -229,7 +229,9 @@ def _frame_lines(cases: Sequence[Mapping[str, Any]], show: Sequence[str], w: int
              and abs(summ[n]["mae"] - spec[n]["mae"]) > 0.005]
     if not names:
         return []
-    tilts = ", ".join(_num(c.get("frame_tilt_deg", math.nan), 1, False) for c in cases)
+    t = [float(c.get("frame_tilt_deg", math.nan)) for c in cases]
+    tilts = ", ".join(_num(x, 1, False) for x in t) if len(t) <= 8 else \
+        f"{np.nanmin(t):.1f} to {np.nanmax(t):.1f}"
     lines = ["", f"the same with the truth in stage 1's frame (+y from sn towards g, as a "
                  f"reconstruction's; the truth's own +y is {tilts} deg from it):"]
     for name in names:
