@@ -1,7 +1,6 @@
 """Which 2D points lie inside a closed polygon (exact crossing-number test).
 
-Used where a planar outline bounds a region: the generic face's mask in its meshing plane,
-and the nose outline of the ground-truth landmarks in the test bed's surface error.
+Used where a planar outline bounds a region: the generic face's mask in its meshing plane.
 
 Example
 -------

@@ -13,8 +13,12 @@ paper's tables:
   scale error counts);
 - ``tables45`` (stage 2, paper §3.3): the boundary-curve MAE and Hausdorff distance of the
   paper's Tables 4 and 5 (:mod:`naseview.stage2_curves.metrics`);
-- ``surface`` (stage 3, paper §3.4): the nose surface error of the pipeline's mesh and of
-  each ablation variant (:mod:`naseview.testbed.surface`).
+- ``surface`` (stage 3, paper §3.4): the nose surface error (SPEC §6 nose region, works
+  on a whole-head truth mesh) of the pipeline's mesh, per case and over the cases, by
+  region, and of each ablation variant (:mod:`naseview.testbed.surface`);
+- ``measurements`` (stage 3, SPEC §6): each clinical measurement of the app on the
+  reconstruction minus the same on the truth mesh and landmarks, per case and as the
+  mean absolute error (:mod:`naseview.testbed.clinical`).
 
 Each is a :class:`Section` in :data:`SECTIONS`: it computes a dict per case from a
 :class:`CaseRun`, summarises the list of those dicts, and formats lines; everything stays
@@ -60,6 +64,7 @@ from naseview.stage2_curves.metrics import (
     boundary_errors,
     px_per_mm_from_truth,
 )
+from naseview.testbed.clinical import format_errors, measurement_errors, summarize_errors
 from naseview.testbed.regions import error_map_png, region_errors, regions_summary
 from naseview.testbed.surface import ablation, nose_surface_samples, surface_error
 
@@ -155,6 +160,14 @@ class CaseRun:
     stages: tuple[int, ...]
     maps_dir: Path | None = None
     ablate: bool = True
+    _truth_mesh: tuple[np.ndarray, np.ndarray] | None = None
+
+    def truth_mesh(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """``truth_face.ply`` (V, F), read once; None when the case has none."""
+        path = self.case_dir / "truth_face.ply"
+        if self._truth_mesh is None and path.is_file():
+            self._truth_mesh = read_mesh(path)
+        return self._truth_mesh
 
 
 @dataclass(frozen=True)
@@ -342,17 +355,21 @@ def _boundary_format(cases: list[dict[str, Any]], summ: dict[str, Any],
 def surface_case(run: CaseRun) -> dict[str, Any]:
     """SPEC §6 surface figures of one case and the stage-3 ablation on the same inputs.
 
-    Nose samples of ``truth_face.ply`` (truth landmarks outline the nose) to the refined
+    Nose samples of ``truth_face.ply`` (the SPEC §6 nose region of the truth landmarks:
+    :func:`naseview.testbed.surface.nose_region`) to the refined
     mesh after rigid landmark alignment (:func:`naseview.testbed.surface.surface_error`),
     for the pipeline's mesh and for each :data:`naseview.testbed.surface.ABLATION_ROWS`
     variant (default stage-3 parameters). Empty without stage 3 or the truth mesh.
     """
     refined = run.result.refined
     rec = run.result.reconstruction
-    if refined is None or not (run.case_dir / "truth_face.ply").is_file():
+    mesh = run.truth_mesh()
+    if refined is None or mesh is None:
         return {}
-    tV, tF = read_mesh(run.case_dir / "truth_face.ply")
-    samples = nose_surface_samples(tV, tF, run.truth.landmarks)
+    tV, tF = mesh
+    samples = nose_surface_samples(tV, tF, run.truth.landmarks,
+                                   source=str(run.case_dir / "truth.json"),
+                                   mesh_source=str(run.case_dir / "truth_face.ply"))
     out: dict[str, Any] = {"pipeline": surface_error(tV, tF, run.truth.landmarks, refined.V,
                                                      refined.F, rec.landmarks, samples=samples)}
     out["regions"] = region_errors(tV, tF, run.truth.landmarks, refined.V, refined.F,
@@ -385,17 +402,29 @@ def _surface_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
 
 def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
                     ids: list[str]) -> list[str]:
-    lines = [f"{'variant':<16}{'mean mm':>9}{'95% CI':>15}{'p95 mm':>9}"]
+    lines = []
+    if len(ids) <= 8:
+        lines.append(f"{'case':<20}{'mean mm':>9}{'p95 mm':>9}")
+        for cid, c in zip(ids, cases, strict=True):
+            if c:
+                p = c["pipeline"]
+                lines.append(f"{cid:<20}{_fmt(p['mean_mm']):>9}{_fmt(p['p95_mm']):>9}")
+        lines.append("")
+    lines.append(f"{'variant':<16}{'mean mm':>9}{'95% CI':>15}{'p95 mm':>9}")
     for row, s in summ.items():
         if row == "regions":
             continue
         m, p = s["mean_mm"], s["p95_mm"]
         ci = f"{_fmt(m['ci_low'])}-{_fmt(m['ci_high'])}"
         lines.append(f"{row:<16}{_fmt(m['mean']):>9}{ci:>15}{_fmt(p['mean']):>9}")
-    lines.append("paper's steps: fit = morphable-model fit (21 landmarks); arap21 / arap76 = + "
-                 "ARAP with the 21 landmarks / all ad-landmarks; arap76+smooth = + cotangent "
-                 "smoothing. fit+warp = fit bent smoothly to the ad-landmarks; naseview = "
-                 "the pipeline, -all76 with every sub-landmark (ABLATION_ROWS)")
+    if len([r for r in summ if r != "regions"]) > 1:
+        lines.append("paper's steps: fit = morphable-model fit (21 landmarks); arap21 / arap76 "
+                     "= + ARAP with the 21 landmarks / all ad-landmarks; arap76+smooth = + "
+                     "cotangent smoothing. fit+warp = fit bent smoothly to the ad-landmarks; "
+                     "naseview = the pipeline, -all76 with every sub-landmark (ABLATION_ROWS)")
+    lines.append("nose region (SPEC §6): truth triangles between sn.y - 3 and n.y + 3, within "
+                 "|al_l.x - al_r.x| / 2 + 3 of the alae's middle, in front of min(ac.z) - 3, "
+                 "facing forward, ambient occlusion <= 0.6")
     if "regions" in summ:
         lines += ["", f"{'region (pipeline)':<20}{'mean mm':>9}{'p95 mm':>9}{'area %':>8}"]
         for name, r in summ["regions"].items():
@@ -404,6 +433,32 @@ def _surface_format(cases: list[dict[str, Any]], summ: dict[str, Any],
         lines.append("regions from the truth landmarks (naseview.testbed.regions); the "
                      "headline figure leaves out the nostril interior")
     return lines
+
+
+def measurements_case(run: CaseRun) -> dict[str, Any]:
+    """SPEC §6 clinical measurement errors of one case
+    (:func:`naseview.testbed.clinical.measurement_errors`): the pipeline's landmarks,
+    curves and mesh against ``truth_face.ply`` with the truth landmarks and curves.
+    Empty without stage 3 or the truth mesh."""
+    refined = run.result.refined
+    mesh = run.truth_mesh()
+    if refined is None or mesh is None:
+        return {}
+    rec = run.result.reconstruction
+    return measurement_errors(mesh[0], mesh[1], run.truth.landmarks, refined.V, refined.F,
+                              rec.landmarks, rec.curves, run.truth.curves)
+
+
+def _measurements_summary(cases: list[dict[str, Any]]) -> dict[str, Any]:
+    have = [c for c in cases if c]
+    return {"errors": summarize_errors(have),
+            "in_stage1_frame": summarize_errors(have, "in_stage1_frame")}
+
+
+def _measurements_format(cases: list[dict[str, Any]], summ: dict[str, Any],
+                         ids: list[str]) -> list[str]:
+    have = [(i, c) for i, c in zip(ids, cases, strict=True) if c]
+    return format_errors([c for _, c in have], summ["errors"], [i for i, _ in have])
 
 
 SECTIONS: list[Section] = [
@@ -417,6 +472,8 @@ SECTIONS: list[Section] = [
             boundary_case, _boundary_summary, _boundary_format),
     Section("surface", "Nose surface error after rigid alignment (mm)", 3,
             surface_case, _surface_summary, _surface_format),
+    Section("measurements", "Clinical measurement error, reconstruction - truth", 3,
+            measurements_case, _measurements_summary, _measurements_format),
 ]
 """The report's sections, in print order; ``stage`` says which run each needs."""
 
@@ -465,7 +522,8 @@ def _evaluate_case(d: Path, model: FaceModel | str | None, stages: tuple[int, ..
         info = _case_info(run)
         info["notes"] = [f"no {name}: no {what}" for name, stage, what in (
             ("truth_boundaries.json", 2, "boundary figures (Tables 4-5)"),
-            ("truth_face.ply", 3, "surface error or map")) if stage in stages
+            ("truth_face.ply", 3, "surface error, map or measurement errors"))
+            if stage in stages
             and not (d / name).is_file()]
         for sec in SECTIONS:
             if sec.stage in stages:

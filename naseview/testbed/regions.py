@@ -1,10 +1,11 @@
 """Nose surface error by anatomical region, and the error colour map of a case.
 
 The regions are defined from the **truth landmarks** alone (SPEC frame: +x subject's left,
-+y up, +z anterior), so they work on any truth mesh (a face model's or a scan's). A point
-of the true nose (inside the frontal outline of
-:data:`naseview.testbed.surface.NOSE_OUTLINE`) with unit surface normal ``n`` is, in this
-order of precedence:
++y up, +z anterior), so they work on any truth mesh (a face model's, a face scan or a
+whole head). The nose is the SPEC §6 nose region of the surface error
+(:func:`naseview.testbed.surface.nose_region`: the box from the truth landmarks, the
+forward-facing triangles), cavities included. A point of it with unit surface normal
+``n`` is, in this order of precedence:
 
 1. ``nostril interior``: ambient occlusion above 0.6 (the cavities; the SPEC §6 headline
    figure leaves them out, this region shows them separately);
@@ -15,7 +16,8 @@ order of precedence:
    ``|x(md)|``);
 4. ``alae``: below the level of int, further from the midline than md;
 5. ``dorsum``: no further from the midline than 30 % of that side's ``|x(int)|``;
-6. ``sidewalls``: the rest (between dorsum and cheek, above the alae).
+6. ``sidewalls``: the rest (between dorsum and cheek, above the alae, and the alar-facial
+   grooves' upper part).
 
 Each region's error is the SPEC §6 distance of its samples to the rigidly aligned
 reconstruction. :func:`error_map_png` paints the per-vertex error on the truth mesh seen
@@ -35,26 +37,22 @@ import numpy as np
 
 from naseview.camera import orbit_camera
 from naseview.geometry.alignment import umeyama
-from naseview.geometry.mesh import face_normals
-from naseview.geometry.occlusion import occlusion
-from naseview.geometry.polygon import points_in_polygon
 from naseview.landmarks import LANDMARK_IDS
 from naseview.render import render_mesh
+from naseview.testbed.surface import MAX_OCCLUSION, nose_region, sample_triangles
 
 REGIONS: tuple[str, ...] = ("dorsum", "tip lobule", "sidewalls", "alae", "columella/sill",
                             "nostril interior")
 """Region names, in report order (module docstring for the definitions)."""
 
-INTERIOR_OCCLUSION = 0.6
-"""Ambient occlusion above which a point is nostril interior."""
+INTERIOR_OCCLUSION = MAX_OCCLUSION
+"""Ambient occlusion above which a point is nostril interior (the SPEC §6 limit)."""
 
 DORSUM_FRACTION = 0.3
 """The dorsum's half-width as a fraction of |x(int)| on that side."""
 
 MAP_MAX_MM = 3.0
 """Top of the colour scale of the error map (mm); larger errors show its colour."""
-
-_OUTLINE = ("mf_r", "mf_l", "int_l", "al_l", "ac_l", "sn", "ac_r", "al_r", "int_r")
 
 
 def _side(lm: Mapping[str, np.ndarray], name: str, x: np.ndarray) -> np.ndarray:
@@ -88,26 +86,19 @@ def classify(P: np.ndarray, N: np.ndarray, occlusion: np.ndarray,
 
 def region_samples(V: np.ndarray, F: np.ndarray, landmarks: Mapping[str, np.ndarray],
                    n_samples: int = 20000, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Area-uniform points of the whole true nose (cavities included) and their region:
-    ((n, 3) points, (n,) region index). Empty when no triangle is inside the outline."""
+    """Area-uniform points of the whole SPEC §6 nose region (cavities included) and their
+    region: ((n, 3) points, (n,) region index). Empty when no triangle is in the region.
+
+    Raises:
+        NaseviewError: a landmark bounding the region is missing (naming truth.json).
+    """
     V = np.ascontiguousarray(V, np.float64)
     F = np.ascontiguousarray(F, np.int64)
-    poly = np.array([np.asarray(landmarks[k], float)[:2] for k in _OUTLINE])
-    C = V[F].mean(1)
-    Nf = face_normals(V, F)
-    area = 0.5 * np.linalg.norm(Nf, axis=1)
-    keep = np.flatnonzero(points_in_polygon(C[:, :2], poly) & (area > 0))
-    if not len(keep):
+    reg = nose_region(V, F, landmarks)
+    if not len(reg.triangles):
         return np.zeros((0, 3)), np.zeros(0, np.int64)
-    Nu = Nf[keep] / (2 * area[keep])[:, None]
-    ao = occlusion(V, F, C[keep], Nu)
-    rng = np.random.default_rng(seed)
-    k = rng.choice(len(keep), n_samples, p=area[keep] / area[keep].sum())
-    r1, r2 = rng.random(n_samples), rng.random(n_samples)
-    s = np.sqrt(r1)
-    bary = np.c_[1 - s, s * (1 - r2), s * r2]
-    P = np.einsum("ij,ijk->ik", bary, V[F[keep[k]]])
-    return P, classify(P, Nu[k], ao[k], landmarks)
+    P, k = sample_triangles(V, F, reg.triangles, reg.area, n_samples, seed)
+    return P, classify(P, reg.normals[k], reg.occlusion[k], landmarks)
 
 
 def _aligned(V: np.ndarray, landmarks: Mapping[str, np.ndarray],
@@ -173,15 +164,16 @@ def error_map_png(path: str | os.PathLike[str], truth_V: np.ndarray, truth_F: np
                   landmarks: Mapping[str, np.ndarray], title: str = "",
                   size: int = 360) -> Path:
     """Write the error colour map of one case: the truth mesh, each vertex of the nose
-    coloured by its distance to the aligned reconstruction (grey outside the nose), from
+    coloured by its distance to the aligned reconstruction (grey outside the SPEC §6 nose
+    region, cavities included), from
     the front, the left profile and below, with a colour bar in mm. Returns the path."""
     from naseview.fileio import write_image
 
     tV = np.asarray(truth_V, float)
     tF = np.asarray(truth_F, np.int64)
     lm = {k: np.asarray(v, float) for k, v in truth_landmarks.items()}
-    poly = np.array([lm[k][:2] for k in _OUTLINE])
-    nose = points_in_polygon(tV[:, :2], poly) & (tV[:, 2] > lm["al_l"][2] - 25.0)
+    nose = np.zeros(len(tV), bool)
+    nose[tF[nose_region(tV, tF, lm).triangles].ravel()] = True
     err = np.zeros(len(tV))
     if nose.any():
         err[nose] = _distances(tV[nose], _aligned(V, landmarks, truth_landmarks), F)

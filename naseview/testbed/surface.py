@@ -3,7 +3,11 @@
 The paper reports landmark distances only; naseview also measures the refined surface of
 stage 3 (paper §3.4) on synthetic cases whose true face is known (``truth_face.ply``):
 
-- :func:`nose_surface_samples` - area-uniform points of the true external nose;
+- :func:`nose_region` - the nose region of a truth mesh (SPEC §6: a box from the truth
+  landmarks, forward-facing triangles, their ambient occlusion); the one definition of
+  the nose that the surface error and the region figures (:mod:`.regions`) share;
+- :func:`nose_surface_samples` - area-uniform points of its open part (the true
+  external nose; works on a whole-head truth mesh);
 - :func:`surface_error` - their distances to the reconstructed mesh after rigid landmark
   alignment;
 - :data:`ABLATION_ROWS` and :func:`ablation` - the same error for the paper's steps and
@@ -25,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import time
 from collections.abc import Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import igl
@@ -35,69 +40,151 @@ from naseview.facemodel import FaceModel
 from naseview.geometry.alignment import umeyama
 from naseview.geometry.mesh import face_normals
 from naseview.geometry.occlusion import occlusion
-from naseview.geometry.polygon import points_in_polygon
 from naseview.landmarks import LANDMARK_IDS
 from naseview.reconstruction import Reconstruction
 from naseview.stage3_mesh import RefineParams, refine
 
-NOSE_OUTLINE: tuple[str, ...] = ("mf_r", "mf_l", "int_l", "al_l", "ac_l", "sn", "ac_r",
-                                 "al_r", "int_r")
-"""Landmarks whose frontal (x, y) outline bounds the nose region of a ground-truth mesh."""
+NOSE_REGION_LANDMARKS: tuple[str, ...] = ("n", "sn", "al_l", "al_r", "ac_l", "ac_r")
+"""The truth landmarks that bound the nose region (:func:`nose_region`)."""
+
+REGION_MARGIN_MM = 3.0
+"""How far the nose region reaches past its landmarks (SPEC §6), mm."""
+
+FORWARD_MIN_NZ = -0.2
+"""Smallest z of a kept triangle's unit normal (SPEC §6: facing forward)."""
+
+MAX_OCCLUSION = 0.6
+"""Largest ambient occlusion of an open (headline) nose triangle (SPEC §6)."""
+
+OCCLUSION_RAYS = 64
+"""Rays of the ambient occlusion at each triangle's centroid."""
 
 
-def _open_nose_triangles(V: np.ndarray, F: np.ndarray, landmarks: Mapping[str, np.ndarray],
-                         max_occlusion: float) -> tuple[np.ndarray, np.ndarray]:
-    """Ids of the triangles inside the nose outline with ambient occlusion at most
-    ``max_occlusion``, and the (m,) areas of all triangles (mm^2)."""
-    poly = np.array([np.asarray(landmarks[k], float)[:2] for k in NOSE_OUTLINE])
+@dataclass(frozen=True)
+class NoseRegion:
+    """The nose region of a (ground-truth) mesh, SPEC §6, before the openness test.
+
+    Attributes:
+        triangles: (k,) ids of the triangles in the box, facing forward, area > 0.
+        area: (k,) their areas, mm^2.
+        normals: (k, 3) their unit normals.
+        occlusion: (k,) ambient occlusion at their centroids (0 open .. 1 enclosed).
+    """
+
+    triangles: np.ndarray
+    area: np.ndarray
+    normals: np.ndarray
+    occlusion: np.ndarray
+
+    @property
+    def open(self) -> np.ndarray:
+        """(k,) bool: the triangles of the SPEC §6 region (occlusion <= 0.6)."""
+        return np.asarray(self.occlusion <= MAX_OCCLUSION)
+
+
+def region_box(landmarks: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The nose box of SPEC §6 as ``(lo, hi)`` (3,) each, mm: x within ``|al_l.x - al_r.x|
+    / 2 + 3`` of ``(al_l.x + al_r.x) / 2``, y from ``sn.y - 3`` to ``n.y + 3``, z in front
+    of ``min(ac_l.z, ac_r.z) - 3`` (``hi.z`` is +inf). ``landmarks`` holds
+    :data:`NOSE_REGION_LANDMARKS`."""
+    lm = {k: np.asarray(landmarks[k], float) for k in NOSE_REGION_LANDMARKS}
+    m = REGION_MARGIN_MM
+    cx = 0.5 * (lm["al_l"][0] + lm["al_r"][0])
+    hw = 0.5 * abs(lm["al_l"][0] - lm["al_r"][0]) + m
+    lo = np.array([cx - hw, lm["sn"][1] - m, min(lm["ac_l"][2], lm["ac_r"][2]) - m])
+    hi = np.array([cx + hw, lm["n"][1] + m, np.inf])
+    return lo, hi
+
+
+def in_region_box(P: np.ndarray, landmarks: Mapping[str, np.ndarray]) -> np.ndarray:
+    """(n,) bool: points ``P`` (n, 3) inside :func:`region_box`."""
+    lo, hi = region_box(landmarks)
+    P = np.asarray(P, float).reshape(-1, 3)
+    return np.asarray(((P >= lo) & (P <= hi)).all(axis=1))
+
+
+def nose_region(V: np.ndarray, F: np.ndarray, landmarks: Mapping[str, np.ndarray],
+                source: str = "truth.json") -> NoseRegion:
+    """The triangles of the nose region of SPEC §6, with their occlusion.
+
+    A triangle belongs when its centroid is in :func:`region_box` (between ``sn.y - 3``
+    and ``n.y + 3`` in height, within ``|al_l.x - al_r.x| / 2 + 3`` of the alae's middle
+    across, in front of ``min(ac_l.z, ac_r.z) - 3``) and its unit normal faces forward
+    (``z > -0.2``). So it holds the radix up to nasion, the alar-facial grooves and the
+    nostril sills, and a truth mesh that is a whole head gives nothing from its back.
+    The ambient occlusion at each centroid (:func:`naseview.geometry.occlusion.occlusion`,
+    64 rays) tells the open surface (SPEC §6: at most 0.6, :attr:`NoseRegion.open`) from
+    the nostril cavities. The one definition of the nose of a truth mesh: the surface
+    error (:func:`nose_surface_samples`) and the region figures
+    (:mod:`naseview.testbed.regions`) both use it.
+
+    Args:
+        V, F: (n, 3) mm / (m, 3) int, the mesh in the SPEC frame.
+        landmarks: id -> (3,) on that mesh (all of :data:`NOSE_REGION_LANDMARKS`).
+        source: the file the landmarks come from, named in the error.
+    Raises:
+        NaseviewError: a landmark of :data:`NOSE_REGION_LANDMARKS` is missing.
+    """
+    missing = [k for k in NOSE_REGION_LANDMARKS if k not in landmarks]
+    if missing:
+        raise NaseviewError(f"{source}: key 'landmarks' lacks {', '.join(missing)}, needed "
+                            "to bound the nose region for the surface error (SPEC §6)")
+    V = np.ascontiguousarray(V, np.float64)
+    F = np.ascontiguousarray(F, np.int64)
     C = V[F].mean(1)
     N = face_normals(V, F)
     area = 0.5 * np.linalg.norm(N, axis=1)
-    keep = np.flatnonzero(points_in_polygon(C[:, :2], poly) & (area > 0))
-    if len(keep):
-        Nu = N[keep] / (2 * area[keep])[:, None]
-        keep = keep[occlusion(V, F, C[keep], Nu) <= max_occlusion]
-    return keep, area
+    keep = np.flatnonzero(in_region_box(C, landmarks) & (area > 0))
+    Nu = N[keep] / (2 * area[keep])[:, None]
+    fwd = Nu[:, 2] > FORWARD_MIN_NZ
+    keep, Nu = keep[fwd], Nu[fwd]
+    ao = occlusion(V, F, C[keep], Nu, OCCLUSION_RAYS) if len(keep) else np.zeros(0)
+    return NoseRegion(keep, area[keep], Nu, ao)
+
+
+def sample_triangles(V: np.ndarray, F: np.ndarray, triangles: np.ndarray, area: np.ndarray,
+                     n_samples: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Area-uniform random points on the ``triangles`` (k,) of (V, F) with ``area`` (k,):
+    ``((n_samples, 3) points, (n_samples,) index into triangles)``; fixed ``seed``."""
+    rng = np.random.default_rng(seed)
+    k = rng.choice(len(triangles), n_samples, p=area / area.sum())
+    r1, r2 = rng.random(n_samples), rng.random(n_samples)
+    s = np.sqrt(r1)
+    bary = np.c_[1 - s, s * (1 - r2), s * r2]
+    P = np.einsum("ij,ijk->ik", bary, np.asarray(V, float)[np.asarray(F)[triangles[k]]])
+    return np.asarray(P), k
 
 
 def nose_surface_samples(V: np.ndarray, F: np.ndarray, landmarks: Mapping[str, np.ndarray],
                          n_samples: int = 20000, seed: int = 0,
-                         max_occlusion: float = 0.6) -> np.ndarray:
+                         source: str = "truth.json",
+                         mesh_source: str = "truth_face.ply") -> np.ndarray:
     """Area-uniform random points of the external nose surface of a (ground-truth) face.
 
-    The nose is the part of the surface whose frontal projection (x, y) lies inside the
-    outline :data:`NOSE_OUTLINE` (mf_r, mf_l, int_l, al_l, ac_l, sn, ac_r, al_r, int_r);
-    of it only the open surface counts: triangles whose ambient occlusion (libigl, embree,
-    64 rays from the centroid) is at most ``max_occlusion``, which leaves out the nostril
-    cavities (occlusion about 0.9) that no photo shows and no base face models alike.
+    The open triangles of :func:`nose_region` (SPEC §6): in the nose box, facing forward,
+    ambient occlusion at most 0.6 (the nostril cavities, about 0.9, that no photo shows
+    and no base face models alike are left out).
 
     Args:
         V, F: (n, 3) mm / (m, 3) int, the mesh in the SPEC frame.
-        landmarks: id -> (3,) on that mesh (all of :data:`NOSE_OUTLINE`).
+        landmarks: id -> (3,) on that mesh (all of :data:`NOSE_REGION_LANDMARKS`).
         n_samples: number of points.
         seed: random seed (fixed: the same points every run).
-        max_occlusion: largest ambient occlusion (0 open .. 1 enclosed) of a kept triangle.
+        source, mesh_source: the files of the landmarks and the mesh, named in errors.
     Returns:
         (n_samples, 3) points, mm.
     Raises:
-        NaseviewError: an outline landmark is missing, or no triangle is inside it.
+        NaseviewError: a region landmark is missing, or no open triangle is in the region.
     """
-    missing = [k for k in NOSE_OUTLINE if k not in landmarks]
-    if missing:
-        raise NaseviewError(f"truth.json: key 'landmarks' lacks {', '.join(missing)}, needed "
-                            "to outline the nose for the surface error")
     V = np.ascontiguousarray(V, np.float64)
     F = np.ascontiguousarray(F, np.int64)
-    keep, area = _open_nose_triangles(V, F, landmarks, max_occlusion)
-    if not len(keep):
-        raise NaseviewError("truth_face.ply: no open triangle inside the nose outline of the "
-                            "truth landmarks; is the mesh in the SPEC frame?")
-    rng = np.random.default_rng(seed)
-    pick = keep[rng.choice(len(keep), n_samples, p=area[keep] / area[keep].sum())]
-    r1, r2 = rng.random(n_samples), rng.random(n_samples)
-    s = np.sqrt(r1)
-    bary = np.c_[1 - s, s * (1 - r2), s * r2]
-    return np.asarray(np.einsum("ij,ijk->ik", bary, V[F[pick]]))
+    reg = nose_region(V, F, landmarks, source)
+    ok = reg.open
+    if not ok.any():
+        raise NaseviewError(f"{mesh_source}: no open forward-facing triangle in the nose "
+                            f"region of the landmarks of {source}; is the mesh in the SPEC "
+                            "frame?")
+    return sample_triangles(V, F, reg.triangles[ok], reg.area[ok], n_samples, seed)[0]
 
 
 def surface_error(truth_V: np.ndarray, truth_F: np.ndarray,

@@ -1,9 +1,10 @@
-"""Point in polygon (naseview.geometry.polygon): one exact method for both callers.
+"""Point in polygon (naseview.geometry.polygon): one exact method.
 
-The generic face's mask used a 0.1 mm raster (OpenCV ``fillPoly``) and the surface error an
-exact crossing-number test; both now use the exact one. The raster is kept here as the
-reference the generic face was built with: its mesh comes out the same either way, and on
-the nose outline of the surface error the two agree away from the border.
+The generic face's mask used a 0.1 mm raster (OpenCV ``fillPoly``) and the surface error
+(until SPEC §6 gave it a 3D nose region) an exact crossing-number test; the generic face
+now uses the exact one. The raster is kept here as the reference the generic face was
+built with: its mesh comes out the same either way, and on a nose outline the two agree
+away from the border.
 """
 
 from __future__ import annotations
@@ -15,7 +16,10 @@ import pytest
 from naseview.facemodel import load_face_model
 from naseview.facemodel.generic import lattice, mesh, triangulate
 from naseview.geometry.polygon import points_in_polygon
-from naseview.testbed.surface import NOSE_OUTLINE
+
+OUTLINE = ("mf_r", "mf_l", "int_l", "al_l", "ac_l", "sn", "ac_r", "al_r", "int_r")
+"""A concave landmark outline of the nose (the surface error's nose until SPEC §6 gave it
+a 3D region), as a polygon of the size the callers meet."""
 
 
 def _raster_inside(P: np.ndarray, poly: np.ndarray, res: float = 0.1) -> np.ndarray:
@@ -61,7 +65,7 @@ def test_generic_face_mesh_is_the_same_with_the_raster(monkeypatch: pytest.Monke
 def test_nose_outline_agrees_with_the_raster_away_from_the_border() -> None:
     m = load_face_model("generic")
     lm = m.landmark_positions()
-    poly = np.array([lm[k][:2] for k in NOSE_OUTLINE])
+    poly = np.array([lm[k][:2] for k in OUTLINE])
     C = m.mean[m.faces].mean(1)[:, :2]
     far = _distance_to_border(C, poly) > 0.1
     exact, raster = points_in_polygon(C, poly), _raster_inside(C, poly)
