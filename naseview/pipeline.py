@@ -48,6 +48,7 @@ from naseview.fileio import (
 )
 from naseview.geometry.region import submesh
 from naseview.measurements import clinical_measurements
+from naseview.measurements.uncertainty import DIRECTION_KEY
 from naseview.meshio import MESH_FORMATS, mesh_bytes
 from naseview.reconstruction import (
     CASE_DIR_KEY,
@@ -268,8 +269,11 @@ def _take_sight_lines(result: PipelineResult, case: Case, model: FaceModel,
     """Landmarks clicked in one photo (placed by stage 1 by symmetry or template, or left
     out) moved to where their line of sight meets the fitted face
     (:func:`~naseview.stage3_mesh.sightline.place_one_photo_landmarks`), with their
-    uncertainty along the ray; a placed g moves the whole frame so that g stays the
-    origin (SPEC §4). Stage 1's placement stays where the line misses the face."""
+    uncertainty along the ray and the ray's unit direction
+    (``extra["landmark_sight_direction"]``, for
+    :func:`~naseview.measurements.measurement_uncertainty`); a placed g moves the whole
+    frame so that g stays the origin (SPEC §4). Stage 1's placement stays where the line
+    misses the face."""
     rec, sfm = result.reconstruction, result.sfm
     if sfm is None:
         return
@@ -284,10 +288,13 @@ def _take_sight_lines(result: PipelineResult, case: Case, model: FaceModel,
         _translate(rec, -shift)
     unc = rec.extra.setdefault("landmark_uncertainty_mm", {})
     how = rec.extra.setdefault("landmarks_one_photo", {})
+    ray = rec.extra.setdefault(DIRECTION_KEY, {})   # what the sd is along (measurements)
     for k, pl in placed.items():
         rec.landmarks[k] = np.asarray(pl.position, float) - shift
         unc[k] = round(float(pl.sd_along_mm), 4)
         how[k] = "line of sight"
+        d = np.asarray(lines[k].d, float)
+        ray[k] = [round(float(x), 5) for x in d / max(float(np.linalg.norm(d)), 1e-12)]
     rec.extra["landmarks_left_out"] = [k for k in rec.extra.get("landmarks_left_out", [])
                                        if k not in placed]
     rec.measurements = clinical_measurements(rec.landmarks, rec.curves or None)

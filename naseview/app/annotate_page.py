@@ -837,12 +837,14 @@ class AnnotatePage:
         self._set(self.skip_btn, "disabled", t is None)
 
     def _panel_hints(self) -> None:
-        """The guidance message and up to three suspect clicks."""
+        """The guidance message, up to three suspect clicks and the notes (mf asked for
+        in a profile photo)."""
         g = self.guidance
         lines = [g.message] if g is not None and g.message else []
         if g is not None and g.suspect:
             lines += [f"⚠ **{i}** in the {v} photo is {r:.0f} px from where the other "
                       "photos put it: check that click" for v, i, r in g.suspect[:3]]
+        lines += list(g.notes) if g is not None else []     # mf in a profile photo
         self._set(self.hint_md, "content", "  \n".join(lines))
 
     def _panel_reconstruct(self, s: AnnotationSession) -> None:

@@ -20,7 +20,7 @@ import numpy as np
 
 from naseview.geometry.closing import close_solid
 from naseview.landmarks import LANDMARKS
-from naseview.measurements import MEASUREMENT_INFO
+from naseview.measurements import MEASUREMENT_INFO, Estimate
 from naseview.meshio import mesh_bytes, textured_obj_files
 from naseview.texture.bake import FaceTexture
 
@@ -184,13 +184,18 @@ def measurements_csv(original: Mapping[str, float], simulated: Mapping[str, floa
 
 def measurements_markdown(original: Mapping[str, float],
                           simulated: Mapping[str, float], which: str = "all",
-                          inputs: Collection[str] = ()) -> str:
+                          inputs: Collection[str] = (),
+                          estimated: Mapping[str, Estimate] | None = None) -> str:
     """Markdown table ``| measurement | original | simulated | change |`` for the page;
     changes of at least 0.05 (mm, deg) are bold, values outside the typical range
     flagged with a dagger. ``which``: ``"clinical"`` (named measurements), ``"distances"``
     (the paper's landmark distances ``a-b``) or ``"all"``. ``inputs``: names whose value
     is a calliper distance typed at intake (:func:`naseview.measurements.calliper_inputs`):
-    marked "input", never flagged against a range."""
+    marked "input", never flagged against a range. ``estimated``: name ->
+    :class:`~naseview.measurements.Estimate` (:func:`naseview.measurements.
+    estimated_measurements`): shown ``10.2 ± 2.4`` and labelled ``*(estimated: mf seen
+    in one photo)*``, never flagged (an input stays an input)."""
+    estimated = estimated or {}
     lines = ["| measurement | orig. | sim. | change |", "|:--|--:|--:|--:|"]
     rows = export_rows(original, simulated)
     if which == "clinical":
@@ -202,14 +207,17 @@ def measurements_markdown(original: Mapping[str, float],
         rng = _info(n)[2]
 
         given = n in inputs
+        est = None if given else estimated.get(n)
+        pm = f" ± {est.sd_mm:.1f}" if est is not None else ""
 
         def fmt(x: float | None, rng: tuple[float, float] | None = rng, u: str = u,
-                unit: str = unit, given: bool = given) -> str:
+                unit: str = unit, given: bool = given or est is not None,
+                pm: str = pm) -> str:
             if x is None:
                 return "–"
             flag = "†" if rng is not None and not given and not (rng[0] <= x <= rng[1]) \
                 else ""
-            return f"{x:.2f}{u}{flag}" if unit == "" else f"{x:.1f}{u}{flag}"
+            return f"{x:.2f}{pm}{u}{flag}" if unit == "" else f"{x:.1f}{pm}{u}{flag}"
 
         if o is not None and s is not None:
             d = s - o
@@ -221,10 +229,15 @@ def measurements_markdown(original: Mapping[str, float],
         label = (info.title if info is not None and info.title and "-" not in n
                  else n.replace("_", " ") if "-" not in n else n.replace("_", r"\_"))
         label += " *(input)*" if given else ""
+        label += f" *(estimated: {est.reason})*" if est is not None else ""
         lines.append(f"| {label} | {fmt(o)} | {fmt(s)} | {ch} |")
+    shown_est = [r[0] for r in rows if r[0] in estimated and r[0] not in inputs]
     if which != "distances":
         lines.append("")
         lines.append("mm unless marked; † outside the typical adult range"
                      + ("; *input*: the calliper distance typed at intake (the 3D result "
-                        "is scaled to it), not a finding." if inputs else "."))
+                        "is scaled to it), not a finding" if inputs else "")
+                     + ("; *estimated*: ± one standard deviation from the depth "
+                        "uncertainty of its landmarks; click them in a profile photo where "
+                        "they show" if shown_est else "") + ".")
     return "\n".join(lines)

@@ -28,6 +28,7 @@ from naseview.camera import Camera
 from naseview.editing.manoeuvres import MANOEUVRES
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
+from naseview.measurements import Estimate
 from naseview.stage1_landmarks import SfmParams
 from naseview.stage2_curves import CurveParams
 from naseview.stage3_mesh import RefineParams
@@ -454,11 +455,13 @@ class Panels:
 
     def set_measurements(self, original: Mapping[str, float],
                          simulated: Mapping[str, float],
-                         inputs: Collection[str] = ()) -> None:
+                         inputs: Collection[str] = (),
+                         estimated: Mapping[str, Estimate] | None = None) -> None:
         """The tables of the reconstruction's and the simulation's measurements;
-        ``inputs``: names that are calliper distances typed at intake."""
+        ``inputs``: names that are calliper distances typed at intake; ``estimated``:
+        the values shown as estimates with their uncertainty."""
         self.measurements.content = measurements_markdown(original, simulated, "clinical",
-                                                          inputs)
+                                                          inputs, estimated)
         self.distances.content = measurements_markdown(original, simulated, "distances",
                                                        inputs)
 

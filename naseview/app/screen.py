@@ -277,7 +277,7 @@ class Screen:
             return
         p = self.panels
         p.set_measurements(ctl.baseline.measurements, sim.measurements,
-                           self.app.calliper_inputs)
+                           self.app.calliper_inputs, self.app.estimated)
         if self.scene is not None and self.scene.show_colormap:
             self._update_colorbar(sim)
         if not sim.interactive:

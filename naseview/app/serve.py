@@ -69,7 +69,7 @@ from naseview.facemodel import store
 from naseview.facemodel.ict import ICT_CREDIT
 from naseview.intake.patients import PatientFolders
 from naseview.landmarks import LANDMARKS
-from naseview.measurements import calliper_inputs
+from naseview.measurements import Estimate, calliper_inputs, estimated_measurements
 from naseview.pipeline import PipelineParams, PipelineResult, reconstruct
 from naseview.reconstruction import calliper_distances, output_case_dir
 from naseview.stage1_landmarks import SfmResult
@@ -298,6 +298,15 @@ class NaseviewApp:
         if rec is not None:
             keys += list(calliper_distances(rec))
         return calliper_inputs(keys)
+
+    @property
+    def estimated(self) -> dict[str, Estimate]:
+        """Measurements of the open reconstruction to show as estimates with their
+        uncertainty (:func:`naseview.measurements.estimated_measurements`: radix height
+        when mf is seen in one photo); none without a reconstruction record."""
+        ctl = self.controller
+        rec = ctl.baseline.reconstruction if ctl is not None else None
+        return estimated_measurements(rec.landmarks, rec.extra) if rec is not None else {}
 
     def screen_of(self, client: viser.ClientHandle | int) -> Screen | None:
         """The screen of a tab (a client or its id), None when it is gone."""

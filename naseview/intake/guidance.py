@@ -6,7 +6,8 @@ bundle adjustment of paper §3.2, eq. 1) on what is there; a further photo with 
 :data:`HINT_MIN_RESECTION` or more clicks is placed by PnP resection on those 3D points
 (:func:`resect_camera`). The 3D landmarks are then reprojected into each photo as hints for
 the remaining clicks (:meth:`Guidance.hints`), and clicks far from where the other photos
-put them are reported as suspect.
+put them are reported as suspect. An mf clicked in the front photo only is asked for in
+its profile photo (:func:`radix_notes`), without blocking Reconstruct.
 
 Example
 -------
@@ -56,6 +57,7 @@ class Guidance:
         suspect: (view, id, residual px) of clicks far from where the others put them.
         message: one line for the page (why there are no hints yet, or the RMS).
         revision: the session revision it was computed for.
+        notes: further hint lines that block nothing (:func:`radix_notes`).
     """
 
     landmarks: dict[str, np.ndarray] = field(default_factory=dict)
@@ -64,6 +66,7 @@ class Guidance:
     suspect: list[tuple[str, str, float]] = field(default_factory=list)
     message: str = ""
     revision: int = -1
+    notes: list[str] = field(default_factory=list)
 
     def hints(self, view: str, clicked: set[str] | None = None) -> dict[str, np.ndarray]:
         """Reprojection into ``view`` of the reconstructed landmarks asked for there that
@@ -192,6 +195,32 @@ def _residuals(cams: dict[str, Camera], landmarks: dict[str, np.ndarray],
     return residuals
 
 
+PROFILE_OF = {"mf_l": "left", "mf_r": "right"}
+"""The profile photo that can show each medial orbital rim."""
+
+
+def radix_notes(clicks: Clicks, sizes: dict[str, tuple[int, int]]) -> list[str]:
+    """Hint lines asking for mf in a profile photo (blocking nothing): one per mf clicked
+    in the front photo but not in its profile photo, once that profile photo is there and
+    has at least :data:`HINT_MIN_CLICKS` clicks (the user is at work in it). Without it
+    mf's depth comes from the face model and the radix height is only an estimate
+    (:func:`naseview.measurements.estimated_measurements`).
+
+    >>> radix_notes({"front": {"mf_l": (1, 2)}, "left": {i: (0, 0) for i in "abcdef"}},
+    ...             {"front": (8, 8), "left": (8, 8)})[0][:60]
+    'mf_l is clicked in the front photo only: click it in the lef'
+    """
+    out = []
+    for k, v in PROFILE_OF.items():
+        if (k in clicks.get("front", {}) and v in sizes and k not in clicks.get(v, {})
+                and len(clicks.get(v, {})) >= HINT_MIN_CLICKS):
+            out.append(f"{k} is clicked in the front photo only: click it in the {v} "
+                       "profile too if the inner corner of the eye socket shows there "
+                       "(skip it if hidden); otherwise the radix height is only an "
+                       "estimate, uncertain by a few mm.")
+    return out
+
+
 def quick_stage1(clicks: Clicks, sizes: dict[str, tuple[int, int]],
                  scale_mm: dict[tuple[str, str], float] | None = None,
                  root: str | os.PathLike[str] = ".") -> Guidance:
@@ -209,20 +238,23 @@ def quick_stage1(clicks: Clicks, sizes: dict[str, tuple[int, int]],
         scale_mm: the user's calliper distances (used when both ends are reconstructed).
         root: folder named in messages.
     Returns:
-        :class:`Guidance`; without hints its ``message`` says what is still missing.
+        :class:`Guidance`; without hints its ``message`` says what is still missing; its
+        ``notes`` ask for mf in a profile photo (:func:`radix_notes`).
     """
     lm_clicks = {v: {i: np.asarray(p, float) for i, p in c.items() if i in LANDMARK_IDS}
                  for v, c in clicks.items() if v in sizes}
+    notes = radix_notes(lm_clicks, sizes)
     views = [v for v in VIEWS if len(lm_clicks.get(v, {})) >= HINT_MIN_CLICKS]
     if len(views) < 2:
         return Guidance(message=f"Hints start once {HINT_MIN_CLICKS} landmarks are clicked "
-                                "in two photos.")
+                                "in two photos.", notes=notes)
     res = _adjust(_partial_case(lm_clicks, views, sizes, dict(scale_mm or {}), root))
     if isinstance(res, Guidance):
+        res.notes = notes
         return res
     cams = _place_cameras(res, lm_clicks, sizes)
     suspect = [(s.view, s.landmark, float(s.residual_px)) for s in res.suspect_clicks]
     msg = (f"Hints from {len(res.landmarks)} reconstructed landmarks "
            f"(reprojection RMS {res.reprojection_rmse_px:.1f} px).")
     return Guidance(dict(res.landmarks), cams, _residuals(cams, res.landmarks, lm_clicks),
-                    suspect, msg)
+                    suspect, msg, notes=notes)

@@ -14,7 +14,10 @@ from the facial midline, nostril areas). All inputs are in the SPEC frame (mm, o
 - :mod:`.width`: distances, widths, intercanthal width;
 - :mod:`.symmetry`: deviations and nostril symmetry;
 - :mod:`.info`: :data:`MEASUREMENT_INFO` (definition, patient sentence, inputs, ranges,
-  sources) and :func:`calliper_inputs`.
+  sources) and :func:`calliper_inputs`;
+- :mod:`.uncertainty`: a measurement's sd from its landmarks' stated uncertainties
+  (:func:`measurement_uncertainty`) and which are shown as estimates
+  (:func:`estimated_measurements`, :data:`ESTIMATED_SD_MM`).
 
 Definitions and references: ``docs/measurements.md``.
 
@@ -53,12 +56,19 @@ from naseview.measurements.profile import (
 )
 from naseview.measurements.section import topology
 from naseview.measurements.symmetry import deviation_measurements
+from naseview.measurements.uncertainty import (
+    ESTIMATED_SD_MM,
+    Estimate,
+    estimated_measurements,
+    measurement_uncertainty,
+)
 from naseview.measurements.width import distance_key, distances, intercanthal
 
 __all__ = [
-    "MEASUREMENT_INFO", "MeasurementInfo", "MidlinePlane", "Profile", "angle_deg",
-    "calliper_inputs", "clinical_measurements", "distance_key", "dorsal_hump_depth",
-    "facial_profile", "format_measurements", "midline_plane",
+    "ESTIMATED_SD_MM", "MEASUREMENT_INFO", "Estimate", "MeasurementInfo", "MidlinePlane",
+    "Profile", "angle_deg", "calliper_inputs", "clinical_measurements", "distance_key",
+    "dorsal_hump_depth", "estimated_measurements", "facial_profile", "format_measurements",
+    "measurement_uncertainty", "midline_plane",
 ]
 
 

@@ -22,6 +22,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 from naseview.landmarks import LANDMARK_IDS, TABLE1_DISTANCES
+from naseview.measurements.uncertainty import Estimate
 from naseview.measurements.width import NAMED_DISTANCES, distance_key
 
 
@@ -275,9 +276,14 @@ def calliper_inputs(scale_mm_keys: Iterable[str]) -> set[str]:
     return out
 
 
-def format_measurements(values: Mapping[str, float]) -> list[str]:
+def format_measurements(values: Mapping[str, float],
+                        estimated: Mapping[str, Estimate] | None = None) -> list[str]:
     """One human-readable line per measurement, in :data:`MEASUREMENT_INFO` order, with the
-    typical range when one is known (for reports and the CLI)."""
+    typical range when one is known (for reports and the CLI). A measurement in
+    ``estimated`` (:func:`~naseview.measurements.uncertainty.estimated_measurements`)
+    carries its uncertainty and why: ``"... 10.20 mm ± 2.43 (estimated: mf seen in one
+    photo)"``."""
+    estimated = estimated or {}
     lines = []
     for name, info in MEASUREMENT_INFO.items():
         if name not in values:
@@ -285,5 +291,7 @@ def format_measurements(values: Mapping[str, float]) -> list[str]:
         unit = {"deg": " deg", "mm": " mm"}.get(info.unit, "")
         rng = (f"  (typical {info.normal[0]:g}-{info.normal[1]:g}{unit})"
                if info.normal else "")
-        lines.append(f"{name:24s} {values[name]:8.2f}{unit}{rng}")
+        est = estimated.get(name)
+        sd = f" ± {est.sd_mm:.2f} (estimated: {est.reason})" if est is not None else ""
+        lines.append(f"{name:24s} {values[name]:8.2f}{unit}{sd}{rng}")
     return lines

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from naseview.measurements import Estimate
 from naseview.texture.bake import FaceTexture
 
 DISCLAIMER = "A simulation is not a promised outcome."
@@ -84,6 +85,10 @@ class ReportData:
             :func:`naseview.reconstruction.calliper_distances`): the measurements equal
             to them are labelled as measured with a calliper at the visit, not as
             findings.
+        estimated: measurement name -> :class:`~naseview.measurements.Estimate`: the
+            values shown as estimates with their uncertainty
+            (:func:`naseview.measurements.estimated_measurements` of the
+            reconstruction; radix height when mf is seen in one photo).
     """
 
     case_id: str
@@ -103,3 +108,4 @@ class ReportData:
     clinic: str = ""
     patient_name: str = ""
     calliper: dict[str, float] = field(default_factory=dict)
+    estimated: dict[str, Estimate] = field(default_factory=dict)

@@ -81,12 +81,14 @@ def photos_sheet(photos: Mapping[str, np.ndarray], height: int = 360) -> np.ndar
 def _ascii(text: str) -> str:
     """``text`` in the characters OpenCV's Hershey fonts can draw."""
     return (text.replace("°", " deg").replace("—", "-").replace("–", "-")
+            .replace("±", "+-")
             .encode("ascii", "replace").decode("ascii"))
 
 
 def measurements_image(rows: list[MeasurementRow], width: int = 900) -> np.ndarray:
     """The patient's measurements table drawn as an image (BGR), for the PNG output:
-    title, before, after, change and the usual range in grey; no flags, no colours."""
+    title, before, after, change and the usual range in grey; no flags, no colours. An
+    estimate says so after its title with its sd ("Radix height (est. +- 2.4 mm)")."""
     rows = [r for r in rows if r["group"] == "clinical"]
     line = 30
     h = line * (len(rows) + 3) + 10
@@ -100,7 +102,8 @@ def measurements_image(rows: list[MeasurementRow], width: int = 900) -> np.ndarr
         y = line * (k + 2)
         if k % 2 == 0:
             cv2.rectangle(img, (0, y - line + 8), (width, y + 8), (245, 245, 245), -1)
-        vals = (r["title"] + (" (calliper)" if r["calliper"] else ""),
+        est = f" (est. ± {r['sd']:.1f} mm)" if r["sd"] is not None else ""
+        vals = (r["title"] + (" (calliper)" if r["calliper"] else "") + est,
                 format_value(r["before"], r["unit"]),
                 format_value(r["after"], r["unit"]),
                 format_value(r["change"], r["unit"], signed=True, ref=r["before"]),

@@ -39,7 +39,12 @@ from naseview.report.images import (
     views_sheet,
 )
 from naseview.report.plan import plan_figures, plan_sentences
-from naseview.report.table import MeasurementRow, format_value, measurement_rows
+from naseview.report.table import (
+    MeasurementRow,
+    format_estimate,
+    format_value,
+    measurement_rows,
+)
 from naseview.report.views import RENDER_VIEWS, render_views
 
 Images = dict[str, np.ndarray]
@@ -168,9 +173,9 @@ def _plan_section(amounts: Mapping[str, float]) -> list[str]:
     return parts
 
 
-def _cell(v: float | None, unit: str) -> str:
-    """A value cell."""
-    return f"<td class='v'>{_esc(format_value(v, unit))}</td>"
+def _cell(v: float | None, unit: str, sd: float | None = None) -> str:
+    """A value cell (``"10.2 ± 2.4 mm"`` when it is an estimate with sd ``sd``)."""
+    return f"<td class='v'>{_esc(format_estimate(v, sd, unit))}</td>"
 
 
 CALLIPER_NOTE = "Measured with a calliper at your visit (not calculated from the photos)."
@@ -182,10 +187,12 @@ def _row(r: MeasurementRow, after: bool) -> str:
     plain = f"<span class='plain'>{_esc(r['plain'])}</span>" if r["plain"] else ""
     if r["calliper"]:
         plain += f"<span class='hint'>{_esc(CALLIPER_NOTE)}</span>"
+    if r["estimate_note"]:
+        plain += f"<span class='hint'>{_esc(r['estimate_note'])}</span>"
     usual = _esc(r["usual"]).replace(" mm", "&nbsp;mm") if r["usual"] else "—"
-    cells = _cell(r["before"], r["unit"])
+    cells = _cell(r["before"], r["unit"], r["sd"])
     if after:
-        cells += (_cell(r["after"], r["unit"]) + "<td class='v'>"
+        cells += (_cell(r["after"], r["unit"], r["sd"]) + "<td class='v'>"
                   + _esc(format_value(r["change"], r["unit"], signed=True, ref=r["before"]))
                   + "</td>")
     return (f"<tr><td class='what'><b>{_esc(r['title'])}</b>{plain}</td>{cells}"
@@ -281,7 +288,11 @@ def _appendix(rows: list[MeasurementRow], after: bool) -> list[str]:
             parts.append(f"<li><b>{_esc(r['title'])}</b>: {_esc(r['description'])}."
                          + (f" Range: {_esc(src)}." if src else "")
                          + (" Calliper input of this case (the scale)." if r["calliper"]
-                            else "") + "</li>")
+                            else "")
+                         + (f" Estimated ({_esc(r['estimated'])}): ± {r['sd']:.1f} mm is "
+                            "one standard deviation, from the stated depth uncertainty "
+                            "of its landmarks (docs/measurements.md)."
+                            if r["sd"] is not None else "") + "</li>")
         parts.append("</ul>")
     parts.append("</section>")
     return parts
@@ -317,7 +328,7 @@ def report_html(data: ReportData, deidentified: bool = False, render_size: int =
     """
     before, after = _renders(data, deidentified, render_size)
     rows = measurement_rows(data.measurements_before, data.measurements_after,
-                            tuple(data.calliper))
+                            tuple(data.calliper), data.estimated)
     images: Images = {"views": views_sheet(before, after),
                       "measurements": measurements_image(rows)}
     has_after = bool(after)

@@ -17,6 +17,7 @@ from naseview.editing.baseline import Baseline, baseline_from_output_dir
 from naseview.editing.session import load_session
 from naseview.errors import NaseviewError
 from naseview.fileio import current_set_file
+from naseview.measurements import Estimate, estimated_measurements
 from naseview.reconstruction import RECONSTRUCTION_FILE, Reconstruction, output_case_dir
 from naseview.report.data import ReportData, surgeon_notes
 from naseview.report.page import write_report
@@ -83,6 +84,12 @@ def _calliper(rec: Reconstruction | None, facts: _CaseFacts) -> dict[str, float]
     return found or dict(facts.calliper)
 
 
+def _estimated(rec: Reconstruction | None) -> dict[str, Estimate]:
+    """The reconstruction's measurements to show as estimates
+    (:func:`naseview.measurements.estimated_measurements`; none without a record)."""
+    return estimated_measurements(rec.landmarks, rec.extra) if rec is not None else {}
+
+
 def report_data_from_session(path: str | os.PathLike[str], case_dir: CaseDir = None,
                              photos: bool = True) -> ReportData:
     """A :class:`ReportData` from a ``naseview.session/1`` file (before = its baseline,
@@ -108,7 +115,8 @@ def report_data_from_session(path: str | os.PathLike[str], case_dir: CaseDir = N
         photos=facts.photos, notes=facts.notes, credit=str(s.app.get("credit", "")),
         texture=_skin(b, facts.photos),
         manoeuvres={str(k): float(v) for k, v in getattr(s, "manoeuvres", {}).items()},
-        calliper=_calliper(getattr(b, "reconstruction", None), facts))
+        calliper=_calliper(getattr(b, "reconstruction", None), facts),
+        estimated=_estimated(getattr(b, "reconstruction", None)))
 
 
 def report_data_from_output(out_dir: str | os.PathLike[str], case_dir: CaseDir = None,
@@ -130,7 +138,8 @@ def report_data_from_output(out_dir: str | os.PathLike[str], case_dir: CaseDir =
     return ReportData(case_id=facts.case_id, V_before=b.V, F=b.F, nose_ids=b.nose_ids,
                       measurements_before=dict(b.measurements), photos=facts.photos,
                       notes=facts.notes, credit=_credit_of(rec),
-                      texture=_skin(b, facts.photos), calliper=_calliper(rec, facts))
+                      texture=_skin(b, facts.photos), calliper=_calliper(rec, facts),
+                      estimated=_estimated(rec))
 
 
 def _skin(baseline: Baseline, photos: dict[str, np.ndarray]) -> FaceTexture | None:

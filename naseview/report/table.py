@@ -7,7 +7,11 @@ title, a plain sentence for the patient and its usual adult range as text (by se
 :data:`naseview.measurements.MEASUREMENT_INFO` gives ranges by sex); no row is flagged
 against its range. A value the reconstruction was scaled to (a calliper distance typed
 at intake, ``case.json`` ``scale_mm``) is marked ``calliper``: it is an input, not a
-finding. The landmark distances are the paper's Table 1
+finding. A value whose uncertainty from its landmarks exceeds
+:data:`~naseview.measurements.ESTIMATED_SD_MM` (radix height when mf is seen in the front
+photo only, :func:`naseview.measurements.estimated_measurements`) carries its sd and is
+shown as an estimate ("10.2 ± 2.4 mm", :func:`estimate_note`), never as a plain finding.
+The landmark distances are the paper's Table 1
 (:data:`naseview.landmarks.TABLE1_DISTANCES`), group ``"table1"``.
 
 Example
@@ -32,7 +36,7 @@ from typing import Any, TypedDict
 
 from naseview import measurements as _measurements
 from naseview.landmarks import TABLE1_DISTANCES
-from naseview.measurements import MEASUREMENT_INFO, distance_key
+from naseview.measurements import MEASUREMENT_INFO, Estimate, distance_key
 
 _calliper_inputs: Callable[[set[str]], Collection[str]] | None = getattr(
     _measurements, "calliper_inputs", None)
@@ -80,7 +84,10 @@ class MeasurementRow(TypedDict):
     a landmark distance); ``plain``: a sentence for the patient ("" for a landmark distance);
     ``usual``: its usual adult range as text ("usual range 115–135°", "women 95–110°,
     men 90–95°", or "" when there is none); ``calliper``: the value before is a calliper
-    distance typed at intake (an input, not a finding).
+    distance typed at intake (an input, not a finding); ``sd``: the value's standard
+    deviation (mm) when it is an estimate, else None; ``estimated``: why, for the surgeon
+    ("mf seen in one photo"; "" when not an estimate); ``estimate_note``: the same for
+    the patient ("" when not an estimate).
     """
 
     name: str
@@ -96,6 +103,9 @@ class MeasurementRow(TypedDict):
     normal: tuple[float, float] | None
     usual: str
     calliper: bool
+    sd: float | None
+    estimated: str
+    estimate_note: str
 
 
 def calliper_names(scale_keys: Collection[str]) -> set[str]:
@@ -137,8 +147,36 @@ def _title(name: str, info: Any) -> str:
     return title[:1].upper() + title[1:]
 
 
+_PATIENT_POINTS = {"mf": "the inner corners of the eye sockets",
+                   "n": "the root of the nose between the eyes",
+                   "g": "the brow between the eyebrows"}
+"""How a patient reads the landmarks an estimate can come from."""
+
+
+def estimate_note(est: Estimate, unit: str = "mm") -> str:
+    """What the patient reads under an estimated value: ``"Estimated: the inner corners
+    of the eye sockets show in one photo only, so this value may be off by about 2.4 mm
+    either way."``"""
+    u = {"mm": " mm", "deg": "°"}.get(unit, "")
+    what = " and ".join(_PATIENT_POINTS.get(p, "a point marked on the photos")
+                        for p in est.points) or "the points it is measured from"
+    why = "show in one photo only" if est.one_photo else "are hard to place in the photos"
+    return (f"Estimated: {what} {why}, so this value may be off by about "
+            f"{est.sd_mm:.1f}{u} either way.")
+
+
+def format_estimate(v: float | None, sd: float | None, unit: str) -> str:
+    """A value with its uncertainty when it has one: ``"10.2 ± 2.4 mm"``
+    (:func:`format_value` otherwise)."""
+    if v is None or sd is None:
+        return format_value(v, unit)
+    u = {"mm": " mm", "deg": "°"}.get(unit, "")
+    return f"{v:.1f} ± {sd:.1f}{u}"
+
+
 def measurement_rows(before: Mapping[str, float], after: Mapping[str, float] | None = None,
-                     scale_keys: Collection[str] = ()) -> list[MeasurementRow]:
+                     scale_keys: Collection[str] = (),
+                     estimated: Mapping[str, Estimate] | None = None) -> list[MeasurementRow]:
     """Rows of the measurements table: clinical measurements first, then the paper's
     Table 1 landmark distances, each group in :data:`MEASUREMENT_INFO` order.
 
@@ -147,11 +185,16 @@ def measurement_rows(before: Mapping[str, float], after: Mapping[str, float] | N
         after: name -> value after the simulation, or None.
         scale_keys: the case's calliper distances (``scale_mm`` keys): their rows get
             ``calliper`` True (:func:`calliper_names`).
+        estimated: name -> :class:`~naseview.measurements.Estimate` of the
+            reconstruction (:func:`naseview.measurements.estimated_measurements`): their
+            rows get ``sd``, ``estimated`` and ``estimate_note`` (a calliper input never
+            does).
     Returns:
         :class:`MeasurementRow` dicts (``change`` = after - before, or None).
     """
     table1 = {distance_key(a, b) for a, b in TABLE1_DISTANCES}
     calliper = calliper_names(scale_keys)
+    estimated = estimated or {}
     rows: list[MeasurementRow] = []
     for name, info in MEASUREMENT_INFO.items():
         if name not in before:
@@ -160,6 +203,7 @@ def measurement_rows(before: Mapping[str, float], after: Mapping[str, float] | N
         a = float(after[name]) if after is not None and name in after else None
         group = "table1" if name in table1 else "clinical"
         clinical = group == "clinical"
+        est = None if name in calliper else estimated.get(name)
         rows.append({
             "name": name, "group": group, "description": info.description,
             "section": str(getattr(info, "group", "") or "") if clinical else "",
@@ -168,7 +212,10 @@ def measurement_rows(before: Mapping[str, float], after: Mapping[str, float] | N
             if clinical else "",
             "unit": info.unit, "before": b, "after": a,
             "change": None if a is None else a - b, "normal": _range(info.normal),
-            "usual": usual_range_text(info), "calliper": name in calliper})
+            "usual": usual_range_text(info), "calliper": name in calliper,
+            "sd": None if est is None else float(est.sd_mm),
+            "estimated": "" if est is None else est.reason,
+            "estimate_note": "" if est is None else estimate_note(est, info.unit)})
     rows.sort(key=lambda r: r["group"] != "clinical")   # stable: keeps the info order
     return rows
 

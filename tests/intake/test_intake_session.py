@@ -217,3 +217,27 @@ def test_guidance_hints_reproject_the_remaining_landmarks(tmp_path: Path, photos
     for i in ("prn", "al_r", "mf_r"):
         assert np.linalg.norm(hints[i] - clicks["right"][i]) < 0.03 * SIZE, i
     assert cams["right"].width == SIZE
+
+
+def test_guidance_asks_for_mf_in_a_profile_without_blocking_reconstruct(tmp_path: Path,
+                                                                         photos):
+    """mf clicked in the front photo only (hidden in the profiles): the hints ask for it in
+    the profile where it shows; Reconstruct is not blocked (issue 23 item 5)."""
+    clicks = true_clicks()
+    hidden = {v: {i: p for i, p in c.items() if not (v in ("left", "right") and
+                                                     i.startswith("mf"))}
+              for v, c in clicks.items()}
+    s = AnnotationSession.create(tmp_path / "p")
+    for v in VIEW_ORDER:
+        s.add_photo(v, photos[v])
+    s.set_scale("al_l", "al_r", 33.0)
+    annotate_all(s, hidden)
+    assert s.problems() == []                                   # ready to reconstruct
+    notes = s.guidance().notes
+    assert len(notes) == 2
+    assert notes[0].startswith("mf_l is clicked in the front photo only: click it in the "
+                               "left profile too")
+    assert "radix height is only an estimate" in notes[0] and "mf_r" in notes[1]
+    s.place("left", "mf_l", clicks["left"]["mf_l"])             # clicked there: asked no more
+    notes = s.guidance().notes
+    assert [n[:4] for n in notes] == ["mf_r"]

@@ -138,3 +138,8 @@ def test_one_note_per_one_photo_landmark_saying_how_it_was_placed() -> None:
         assert len(notes) == 1
         assert ("line of sight" in notes[0]) == (method == "line of sight")
     assert res.reconstruction.extra["warnings"] == res.warnings
+    # the ray each line-of-sight sd is along, unit, for the measurements' uncertainty
+    rays = res.reconstruction.extra["landmark_sight_direction"]
+    assert set(rays) == {k for k, m in how.items() if m == "line of sight"}
+    for d in rays.values():
+        assert abs(float(np.linalg.norm(d)) - 1.0) < 1e-4
