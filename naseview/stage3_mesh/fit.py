@@ -2,7 +2,10 @@
 
 ``v_base, f_base = 3DMM(I)``: naseview fits the model's similarity (Umeyama) and identity
 coefficients (with their Gaussian prior) to the 3D landmarks of stage 1 and, when present,
-the sub-landmarks of stage 2 on the boundary curves, in the SPEC frame (mm).
+the sub-landmarks of stage 2 on the boundary curves, in the SPEC frame (mm); then, with a
+face model rich enough to follow them (``RefineParams.uses_profile_band``), to the profile
+photos' silhouettes from the glabella to the upper lip as well (issue 23: the base face
+fitted to the evidence, not to 21 vertices alone; :func:`_fit_silhouettes`).
 
 Example
 -------
@@ -302,7 +305,10 @@ def fit_face_model(model: FaceModel, landmarks: Mapping[str, np.ndarray],
     rows are the landmark vertices and, when sub-landmarks are given (and
     ``params.use_sublandmarks``), the points of the mesh curves at the same arc-length
     fraction (interpolated between two path vertices, re-measured every alternation).
-    Coefficients beyond ``params.coeff_limit_sd`` are clamped with a warning.
+    Coefficients beyond ``params.coeff_limit_sd`` are clamped with a warning. With
+    ``silhouettes`` (and ``params.uses_profile_band``) the sum gains, for a few rounds,
+    the rows ``|s R (mean_j + B_j w) + t - b_j|^2 / sigma_s^2`` of the contour vertices j
+    matched to the profile photos' silhouettes at b_j (:func:`_fit_silhouettes`).
 
     Args:
         model: the face model.

@@ -5,7 +5,9 @@ each in its own module:
 
 1. :func:`~naseview.stage3_mesh.fit.fit_face_model` - the base face
    ``v_base, f_base = 3DMM(I)`` (eq. 18): similarity and identity coefficients of the
-   morphable model fitted to the landmarks (and sub-landmarks);
+   morphable model fitted to the landmarks (and sub-landmarks) and, with a model rich
+   enough to follow them, to the profile photos' silhouettes over the profile band
+   (glabella to upper lip, :mod:`~naseview.stage3_mesh.profile_band`; issue 23);
 2. :func:`~naseview.stage3_mesh.correspondences.correspondences` - each ad-landmark to a
    vertex of the base mesh (the handles);
 3. :func:`~naseview.stage3_mesh.warp.smooth_warp` (naseview's addition) - the base bent
@@ -16,11 +18,11 @@ each in its own module:
    with a pinned margin ring and the handles as hard constraints, then cotangent
    smoothing (eq. 21). It stays in the result, ready for the app's re-solves;
 5. :mod:`~naseview.stage3_mesh.silhouette` (naseview's addition, issue 11) - the nose's
-   occluding contour in the profile photos matched to their silhouettes and added as
-   hard handles, up to ``params.silhouette_rounds`` times, until a round matches the
-   handles of the round before (the dense form of the mid-curve, whose sub-landmarks
-   then shape the fit and warp only, unless the face model is too coarse to follow
-   them: ``params.keeps_mid_handles``).
+   occluding contour (and the profile band's) in the profile photos matched to their
+   silhouettes and added as hard handles, up to ``params.silhouette_rounds`` times,
+   until a round matches the handles of the round before (the dense form of the
+   mid-curve, whose sub-landmarks then shape the fit and warp only, unless the face
+   model is too coarse to follow them: ``params.keeps_mid_handles``).
 
 Everything is in the SPEC frame (mm, origin g, +x subject's left, +y up, +z anterior).
 
