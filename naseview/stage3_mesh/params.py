@@ -230,6 +230,17 @@ class RefineParams:
             below sn (the upper lip, read by the nasolabial angle) whose outline the
             profile photos show; matched in the fit and in the silhouette rounds, so
             the deformed region grows over it.
+        profile_band_used: whether the band is matched (True), only the nose (False), or
+            ``None``: automatic, with a face model that has at least as many modes as
+            landmarks (ICT, not the generic face; the rule of :attr:`mid_handles`).
+            bench_real (SPEC §6 nose surface mean, ICT base, without -> with the band):
+            james-a 0.769 -> 0.735, james-b 1.000 -> 0.921, lps-a 0.983 -> 0.847, lps-b
+            1.243 -> 1.224, synth --scan james 0.77 -> 0.72, lps 1.12 -> 1.00, in-model
+            0.29 -> 0.29; nasolabial angle error -5.9/-15.3/-36.5/-37.6 ->
+            +3.4/+3.5/-8.2/-12.6 deg. On the generic face (whose lip its 9 modes cannot
+            bend, and whose band matches past ``silhouette_max_mm`` are left out) the
+            band moved james-a 0.907 -> 1.020 and lps-a 1.045 -> 0.909 mm and the
+            nasolabial error of lps-b from -34 to -91 deg: off there.
 
     Raises:
         NaseviewError: a value outside its range (the message names the field and range).
