@@ -115,14 +115,31 @@ def retitled(response: Response, title: str = PAGE_TITLE) -> Response:
     return replace(response, headers=headers, body=payload)
 
 
+_HOST_RE = re.compile(r"(?:\[(?P<ip6>[0-9A-Fa-f:.]+)\]|(?P<name>[A-Za-z0-9.-]+))"
+                      r"(?::(?P<port>[0-9]{1,5}))?")
+"""A ``Host`` header: a name, an IPv4 address or a bracketed IPv6 address, then an optional
+``:port`` (RFC 9110 section 7.2), and nothing else: no user info (``evil.com@localhost``), no
+path (``localhost:8080/x``), no spaces inside."""
+
+
 def _split_host(value: str) -> tuple[str, int | None]:
-    """``"Host"`` header value -> (lower-case name without brackets, port or None)."""
-    parsed = urlsplit("//" + value.strip())
-    try:
-        port = parsed.port
-    except ValueError:
+    """``"Host"`` header value -> (lower-case name without brackets, port or None).
+
+    Parsed strictly (:data:`_HOST_RE`); anything else gives ``("", None)``, which no
+    policy accepts.
+
+    >>> _split_host("LocalHost:8080"), _split_host("[::1]:80")
+    (('localhost', 8080), ('::1', 80))
+    >>> _split_host("evil.com@localhost:8080"), _split_host("localhost:8080/x")
+    (('', None), ('', None))
+    """
+    m = _HOST_RE.fullmatch(value.strip(" \t"))
+    if m is None:
         return "", None
-    return (parsed.hostname or "").lower(), port
+    port = int(m["port"]) if m["port"] is not None else None
+    if port is not None and port > PORT_RANGE[1]:
+        return "", None
+    return (m["ip6"] or m["name"]).lower(), port
 
 
 def _is_ip_literal(name: str) -> bool:
