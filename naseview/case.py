@@ -221,7 +221,10 @@ def _parse_view(path: Path, name: str, views_obj: dict[str, Any], root: Path,
         if not img_path.is_file():
             raise _err(path, f"views.{name}.image",
                        f"photo {img_path} not found; put it next to case.json")
-        width, height = image_size(img_path)
+        try:
+            width, height = image_size(img_path)
+        except NaseviewError as e:   # damaged, truncated, a lying header, too large
+            raise _err(path, f"views.{name}.image", str(e)) from None
     else:
         width, height = int(v.get("width", 0)), int(v.get("height", 0))
     lms = v.get("landmarks", {})
