@@ -58,6 +58,7 @@ import websockets.asyncio.server
 from websockets.asyncio.server import ServerConnection
 from websockets.http11 import Request, Response
 
+from naseview.app.upload_limit import UploadLimit
 from naseview.errors import NaseviewError
 
 log = logging.getLogger(__name__)
@@ -323,7 +324,8 @@ def guarded_viser_server(host: str, port: int, **kwargs: Any) -> viser.ViserServ
             which; every request is checked against the port it arrived on).
         **kwargs: passed to :class:`viser.ViserServer`.
     Returns:
-        the started server, with :func:`refuse_share` applied and the share button hidden.
+        the started server, with :func:`refuse_share` applied, the share button hidden
+        and the upload limit on every connection (:class:`UploadLimit`).
     Raises:
         NaseviewError: see :func:`check_listen`; a busy port is an error, never a silent
             move to the next one.
@@ -336,5 +338,6 @@ def guarded_viser_server(host: str, port: int, **kwargs: Any) -> viser.ViserServ
         server.stop()                       # (its requests were refused: wrong port)
         raise _busy(host, port)
     refuse_share(server)
+    UploadLimit.install(server)        # every connection, before any tab can connect
     server.gui.configure_theme(show_share_button=False)
     return server
