@@ -35,13 +35,17 @@ from naseview.fileio import (
     write_image,
 )
 from naseview.landmarks import ALL_IDS, LANDMARK_IDS, VIEWS
-from naseview.params import Range
+from naseview.params import PHOTO_SIDE_PX, Range, first_outside, focal_range
 
 CASE_FORMAT = "naseview.case/1"
 
 SCALE_MM_RANGE = Range(0.0, 500.0, low_open=True, high_open=True)
 """Accepted calliper distances (mm): positive, and below 500 mm (no nose is that large;
 a larger value is a typing error, e.g. micrometres)."""
+
+FOCAL_UNKNOWN_SIZE = Range(focal_range(1, 1).low,
+                           focal_range(PHOTO_SIDE_PX.high, PHOTO_SIDE_PX.high).high)
+"""Focal lengths accepted when the photo's size is not known (``check_images=False``)."""
 
 
 @dataclass
@@ -157,22 +161,37 @@ def _parse_point(path: Path, key: str, value: Any, width: int, height: int) -> n
     return np.array([x, y])
 
 
-def _parse_camera(path: Path, key: str, value: Any) -> dict[str, Any]:
-    """``{"focal_px": f}`` or ``{"K": 3x3}`` of a view, normalised to plain numbers."""
+def _parse_camera(path: Path, key: str, value: Any, width: int, height: int
+                  ) -> dict[str, Any]:
+    """``{"focal_px": f}`` or ``{"K": 3x3}`` of a view, normalised to plain numbers; the
+    focal length within the ``width`` x ``height`` photo's scale (:func:`focal_range`)."""
     if not isinstance(value, dict):
         raise _err(path, key, 'expected {"focal_px": f} or {"K": 3x3 matrix}')
+    focal = focal_range(width, height) if width and height else FOCAL_UNKNOWN_SIZE
     if "K" in value:
         try:
             K = np.asarray(value["K"], dtype=np.float64)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             K = np.zeros(0)
-        if K.shape != (3, 3) or not np.all(np.isfinite(K)) or K[0, 0] <= 0 or K[1, 1] <= 0:
-            raise _err(path, key + ".K", "expected a 3x3 intrinsics matrix with fx, fy > 0")
+        if K.shape != (3, 3) or not np.all(np.isfinite(K)):
+            raise _err(path, key + ".K", "expected a 3x3 intrinsics matrix of finite numbers")
+        bad = first_outside([K[0, 0], K[1, 1]], focal)
+        if bad is not None:
+            raise _err(path, key + ".K", f"focal length {bad:g} px is outside {focal}; "
+                                         "expected fx, fy in pixels of this photo")
+        if first_outside(K, Range(-focal.high, focal.high)) is not None:
+            raise _err(path, key + ".K", f"an entry is outside {Range(-focal.high, focal.high)}"
+                                         "; expected intrinsics in pixels of this photo")
         return {"K": K.tolist()}
     if "focal_px" in value:
         f = value["focal_px"]
-        if not isinstance(f, (int, float)) or isinstance(f, bool) or not f > 0:
-            raise _err(path, key + ".focal_px", "expected a positive focal length in pixels")
+        if not isinstance(f, (int, float)) or isinstance(f, bool):
+            raise _err(path, key + ".focal_px", f"{f!r} is not a number; expected the focal "
+                                                f"length in pixels in {focal}")
+        if float(f) not in focal:
+            raise _err(path, key + ".focal_px", f"{f!r} is outside {focal}; expected the "
+                                                "focal length in pixels of this photo "
+                                                "(0.05 to 100 times its longest side)")
         return {"focal_px": float(f)}
     raise _err(path, key, 'expected {"focal_px": f} or {"K": 3x3 matrix}')
 
@@ -221,7 +240,10 @@ def _parse_view(path: Path, name: str, views_obj: dict[str, Any], root: Path,
         if not img_path.is_file():
             raise _err(path, f"views.{name}.image",
                        f"photo {img_path} not found; put it next to case.json")
-        width, height = image_size(img_path)
+        try:
+            width, height = image_size(img_path)
+        except NaseviewError as e:   # damaged, truncated, a lying header, too large
+            raise _err(path, f"views.{name}.image", str(e)) from None
     else:
         width, height = int(v.get("width", 0)), int(v.get("height", 0))
     lms = v.get("landmarks", {})
@@ -233,7 +255,7 @@ def _parse_view(path: Path, name: str, views_obj: dict[str, Any], root: Path,
         if lid not in ALL_IDS:
             raise _err(path, key, "unknown landmark id; known ids: " + ", ".join(ALL_IDS))
         points[lid] = _parse_point(path, key, xy, width or 10**9, height or 10**9)
-    camera = _parse_camera(path, f"views.{name}.camera", v["camera"]) \
+    camera = _parse_camera(path, f"views.{name}.camera", v["camera"], width, height) \
         if v.get("camera") is not None else None
     return View(name, image, points, width, height, camera)
 

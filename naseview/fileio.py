@@ -246,12 +246,35 @@ _JPEG_SOF = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0
 _NOT_AN_IMAGE = "not a readable PNG or JPEG image; re-export the photo as JPEG or PNG"
 
 
+MAX_PIXELS_PER_BYTE = 2048
+"""A PNG / JPEG declaring ``W x H`` px must hold at least ``W * H / 2048`` bytes (a PNG:
+its uncompressed rows / 2048), half of what any real file of that size needs.
+
+Huffman-coded JPEG spends at least one bit on each 8x8 block of each component (the DC
+difference; progressive end-of-band runs cover the rest), i.e. at least ``W * H / 512``
+bytes; deflate (PNG) compresses at most 1032:1. A file below this cannot hold the pixels
+its header declares: it is truncated or its header lies (a 1.3 KB JPEG declaring 8000 x
+8000 px, which libjpeg would "decode" as 192 MB of grey after printing "Corrupt JPEG
+data"), and it is refused before anything is allocated. (An arithmetic-coded JPEG of a
+nearly uniform picture could be smaller; no camera writes one, and it is no photo.)"""
+
+_PNG_CHANNELS = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}  # colour type -> samples per pixel
+
+
 def _jpeg_size(data: bytes) -> tuple[int, int] | None:
     """(width, height) from the first SOF segment of a JPEG, or None if there is none."""
+    frame = _jpeg_frame(data)
+    return None if frame is None else frame[:2]
+
+
+def _jpeg_frame(data: bytes) -> tuple[int, int, int] | None:
+    """(width, height, offset of the first start-of-scan or -1) of a JPEG, from its
+    markers, or None if it has no frame header."""
     i = 2
+    size: tuple[int, int] | None = None
     while i + 4 <= len(data):
         if data[i] != 0xFF:
-            return None
+            return None if size is None else (*size, -1)
         marker = data[i + 1]
         if marker == 0xFF:  # fill byte
             i += 1
@@ -259,38 +282,71 @@ def _jpeg_size(data: bytes) -> tuple[int, int] | None:
         if marker == 0x01 or 0xD0 <= marker <= 0xD8:  # markers without a length
             i += 2
             continue
-        if marker in (0xD9, 0xDA):  # end of image / start of scan before any frame header
-            return None
+        if marker == 0xD9:  # end of image before any scan
+            return None if size is None else (*size, -1)
+        if marker == 0xDA:  # start of scan: the frame header must come before it
+            return None if size is None else (*size, i)
         length = (data[i + 2] << 8) | data[i + 3]
-        if marker in _JPEG_SOF:
+        if marker in _JPEG_SOF and size is None:
             if i + 9 > len(data):
                 return None
             height, width = struct.unpack(">HH", data[i + 5:i + 9])
-            return int(width), int(height)
+            size = (int(width), int(height))
         i += 2 + length
-    return None
+    return None if size is None else (*size, -1)
+
+
+def _megapixels(pixels: int) -> str:
+    """``pixels`` in megapixels, rounded to a whole number unless that would make it look
+    equal to the limit (8001 x 8000 px is "64.008", not "64", megapixels).
+
+    >>> _megapixels(1024 * 10**6), _megapixels(8001 * 8000), _megapixels(MAX_IMAGE_PIXELS)
+    ('1024', '64.008', '64')
+    """
+    whole = f"{pixels / 1e6:.0f}"
+    if pixels == MAX_IMAGE_PIXELS or whole != f"{MAX_IMAGE_PIXELS / 1e6:.0f}":
+        return whole
+    return f"{pixels / 1e6:.6f}".rstrip("0").rstrip(".")
+
+
+def _damaged(name: str | os.PathLike[str], kind: str, why: str) -> NaseviewError:
+    return NaseviewError(f"{name}: the {kind} file is damaged or truncated ({why}); copy "
+                         "the photo again from the camera")
 
 
 def image_header(data: bytes, name: str | os.PathLike[str]) -> tuple[str, int, int]:
     """``(kind, width, height)`` declared by a PNG or JPEG header, without decoding.
 
+    The file must also be complete (a JPEG's end-of-image marker after its first scan, a
+    PNG's ``IEND`` chunk) and large enough for the pixels it declares
+    (:data:`MAX_PIXELS_PER_BYTE`), so a header that lies is refused here, not
+    "decoded" as a grey picture.
+
     Raises:
-        NaseviewError: not a PNG or JPEG, a damaged header, or more than
-            :data:`MAX_IMAGE_PIXELS` pixels (naming ``name`` and the limit).
+        NaseviewError: not a PNG or JPEG, a damaged header, a truncated file, fewer bytes
+            than the declared size needs, or more than :data:`MAX_IMAGE_PIXELS` pixels
+            (naming ``name`` and the limit).
     """
     if data[:8] == _PNG_SIGNATURE:
-        if len(data) < 24 or data[12:16] != b"IHDR":
+        if len(data) < 26 or data[12:16] != b"IHDR":
             raise NaseviewError(f"{name}: the PNG file is damaged (no image header); "
                                 "copy the photo again")
         kind = "png"
         width, height = struct.unpack(">II", data[16:24])
+        channels = _PNG_CHANNELS.get(data[25], 4)
+        needed = height * (1 + (width * channels * max(data[24], 1) + 7) // 8)
+        incomplete = (None if b"\x00\x00\x00\x00IEND" in data
+                      else "it ends before its IEND chunk")
     elif data[:3] == b"\xff\xd8\xff":
         kind = "jpeg"
-        size = _jpeg_size(data)
-        if size is None:
+        frame = _jpeg_frame(data)
+        if frame is None:
             raise NaseviewError(f"{name}: the JPEG file is damaged or truncated (no frame "
                                 "header); copy the photo again")
-        width, height = size
+        width, height, scan = frame
+        incomplete = None if scan >= 0 and data.find(b"\xff\xd9", scan) >= 0 else (
+            "no image data, or it ends before its end-of-image marker")
+        needed = width * height
     else:
         raise NaseviewError(f"{name}: {_NOT_AN_IMAGE}")
     if width <= 0 or height <= 0:
@@ -298,9 +354,15 @@ def image_header(data: bytes, name: str | os.PathLike[str]) -> tuple[str, int, i
                             "px; copy the photo again")
     if width * height > MAX_IMAGE_PIXELS:
         raise NaseviewError(
-            f"{name}: {width}x{height} px ({width * height / 1e6:.0f} megapixels) is over "
-            f"the limit of {MAX_IMAGE_PIXELS / 1e6:.0f} megapixels; downscale the photo "
+            f"{name}: {width}x{height} px ({_megapixels(width * height)} megapixels) is over "
+            f"the limit of {_megapixels(MAX_IMAGE_PIXELS)} megapixels; downscale the photo "
             "(12 megapixels is plenty)")
+    if incomplete is not None:
+        raise _damaged(name, kind.upper(), incomplete)
+    if len(data) < needed // MAX_PIXELS_PER_BYTE:
+        raise _damaged(name, kind.upper(),
+                       f"its header declares {width}x{height} px but the file holds only "
+                       f"{len(data):,} bytes, fewer than such an image needs")
     return kind, int(width), int(height)
 
 

@@ -26,6 +26,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from numbers import Integral, Real
 
+import numpy as np
+
 from naseview.errors import NaseviewError
 
 ErrorType = Callable[[str], Exception]
@@ -96,3 +98,60 @@ def check_names(owner: str, name: str, value: object, allowed: tuple[str, ...],
     if not isinstance(value, tuple) or any(v not in allowed for v in value):
         raise error(f"{owner}.{name}: {value!r} is not a tuple of names from "
                     f"{', '.join(allowed)}")
+
+
+# Physical ranges of the numbers naseview reads from files (case.json, reconstruction.json,
+# session and simulation files). One place, used by every reader: a number outside its
+# range is a damaged or hostile file, refused at the boundary naming the key, never passed
+# on to overflow in numpy (1e308 mm) or to divide by a focal length of 1e-300 px.
+
+POSITION_MM = Range(-1000.0, 1000.0)
+"""Coordinates of a point of the face (landmark, curve, mesh vertex), mm in the face's
+frame (SPEC §2): within a metre of the origin."""
+
+CAMERA_POSITION_MM = Range(-100_000.0, 100_000.0)
+"""A camera's translation ``t`` (mm): within 100 m of the face."""
+
+ROTATION_ENTRY = Range(-1.001, 1.001)
+"""An entry of a rotation matrix (unitless; |R_ij| <= 1)."""
+
+FOCAL_PER_SIDE = Range(0.05, 100.0)
+"""A focal length in pixels divided by the photo's longest side: from a 170-degree fisheye
+(0.05) to a 2500 mm telephoto (100); see :func:`focal_range`."""
+
+PHOTO_SIDE_PX = Range(1, 100_000, integer=True)
+"""A photo's width or height (px)."""
+
+PIXEL_ERROR_PX = Range(0.0, 1e6)
+"""A reprojection error (px)."""
+
+MEASUREMENT_VALUE = Range(-1e6, 1e6)
+"""A stored measurement (mm, degrees, mm^2 or a ratio): no facial measure is near 1e6."""
+
+
+def focal_range(width: float, height: float) -> Range:
+    """The focal lengths (px) accepted for a ``width`` x ``height`` photo
+    (:data:`FOCAL_PER_SIDE` times its longest side).
+
+    >>> str(focal_range(1000, 800))
+    '[50, 100000]'
+    """
+    side = max(float(width), float(height), 1.0)
+    return Range(FOCAL_PER_SIDE.low * side, FOCAL_PER_SIDE.high * side)
+
+
+def first_outside(values: object, allowed: Range) -> float | None:
+    """The first number of ``values`` (an array of floats) outside ``allowed`` (NaN and
+    inf included), or None when all are inside.
+
+    >>> first_outside([1.0, 2e300, -5.0], Range(-10.0, 10.0))
+    2e+300
+    >>> first_outside([], Range(0.0)) is None
+    True
+    """
+    arr = np.asarray(values, dtype=np.float64).ravel()
+    with np.errstate(invalid="ignore"):
+        low = arr > allowed.low if allowed.low_open else arr >= allowed.low
+        high = arr < allowed.high if allowed._high_open else arr <= allowed.high
+    bad = np.flatnonzero(~(low & high))
+    return float(arr[bad[0]]) if bad.size else None

@@ -34,6 +34,17 @@ from naseview.fileio import (
     set_version,
     sha256_hex,
 )
+from naseview.params import (
+    CAMERA_POSITION_MM,
+    MEASUREMENT_VALUE,
+    PHOTO_SIDE_PX,
+    PIXEL_ERROR_PX,
+    POSITION_MM,
+    ROTATION_ENTRY,
+    Range,
+    first_outside,
+    focal_range,
+)
 
 RECONSTRUCTION_FORMAT = "naseview.reconstruction/1"
 
@@ -120,9 +131,9 @@ class Reconstruction:
         if not isinstance(tags, list) or not all(isinstance(t, dict) for t in tags):
             raise NaseviewError(f"{where}: key 'ad_landmark_tags': expected a list of objects")
         rmse = obj.get("reprojection_rmse_px")
-        if rmse is not None and not _finite_number(rmse):
-            raise NaseviewError(f"{where}: key 'reprojection_rmse_px': expected a finite "
-                                "number or null")
+        if rmse is not None and (not _finite_number(rmse) or rmse not in PIXEL_ERROR_PX):
+            raise NaseviewError(f"{where}: key 'reprojection_rmse_px': expected a number in "
+                                f"{PIXEL_ERROR_PX} (px) or null")
         measurements = numbers_dict(obj.get("measurements", {}), where, "measurements")
         known = {"format", "units", "landmarks", "curves", "ad_landmarks", "ad_landmark_tags",
                  "cameras", "reprojection_rmse_px", "measurements"}
@@ -185,6 +196,11 @@ def points_array(value: object, where: str, key: str, count: int | None = None
         raise NaseviewError(f"{where}: key {key!r}: expected a list of [x, y, z] numbers")
     if not np.isfinite(arr).all():
         raise NaseviewError(f"{where}: key {key!r}: coordinates must be finite numbers")
+    bad = first_outside(arr, POSITION_MM)
+    if bad is not None:
+        raise NaseviewError(f"{where}: key {key!r}: coordinate {bad:g} is outside "
+                            f"{POSITION_MM}; points of the face are mm within a metre of "
+                            "its origin (the file is damaged: save or reconstruct again)")
     if count is not None and len(arr) != count:
         raise NaseviewError(f"{where}: key {key!r}: expected {count} points, found "
                             f"{len(arr)}")
@@ -238,16 +254,35 @@ def numbers_dict(value: object, where: str, key: str) -> dict[str, float]:
     for k, v in value.items():
         if not _finite_number(v):
             raise NaseviewError(f"{where}: key '{key}.{k}': expected a finite number")
+        if float(v) not in MEASUREMENT_VALUE:
+            raise NaseviewError(f"{where}: key '{key}.{k}': {v!r} is outside "
+                                f"{MEASUREMENT_VALUE}; no facial measurement is that large")
     return {k: float(v) for k, v in value.items()}
 
 
 def _finite_camera(cam: Camera, where: str) -> Camera:
-    """``cam`` after checking its matrices are finite and its size positive."""
+    """``cam`` after checking every number against its physical range
+    (:mod:`naseview.params`): size, focal lengths within the photo's scale, the rest of
+    ``K`` within that scale too, ``R`` a rotation's entries, ``t`` within 100 m."""
     if not (np.isfinite(cam.K).all() and np.isfinite(cam.R).all()
             and np.isfinite(cam.t).all()):
         raise NaseviewError(f"{where}: K, R and t must be finite numbers")
-    if cam.width <= 0 or cam.height <= 0:
-        raise NaseviewError(f"{where}: width and height must be positive pixel counts")
+    for name, size in (("width", cam.width), ("height", cam.height)):
+        if size not in PHOTO_SIDE_PX:
+            raise NaseviewError(f"{where}.{name}: {size!r} is outside {PHOTO_SIDE_PX}; "
+                                "expected the photo's size in pixels")
+    focal = focal_range(cam.width, cam.height)
+    checks = ((".K (fx, fy)", [cam.K[0, 0], cam.K[1, 1]], focal,
+               "the focal length in pixels, within the photo's scale"),
+              (".K", cam.K, Range(-focal.high, focal.high),
+               "intrinsics in pixels, within the photo's scale"),
+              (".R", cam.R, ROTATION_ENTRY, "a rotation matrix"),
+              (".t", cam.t, CAMERA_POSITION_MM, "mm, within 100 m of the face"))
+    for key, values, allowed, meaning in checks:
+        bad = first_outside(values, allowed)
+        if bad is not None:
+            raise NaseviewError(f"{where}{key}: {bad:g} is outside {allowed}; expected "
+                                f"{meaning}")
     return cam
 
 

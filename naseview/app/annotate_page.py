@@ -60,20 +60,18 @@ from naseview.app.patients_panel import PatientList
 from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
 from naseview.app.photo_plane import PhotoPlane, disc_mesh, ring_mesh
 from naseview.app.scope import (
-    ClientAsServer,
     NoticeColor,
     Scope,
     clients_of,
     notify,
     run_action,
 )
-from naseview.app.upload_limit import UploadLimit, UploadScope
+from naseview.app.upload_limit import UploadLimit
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, describe
 from naseview.intake.guidance import Guidance
 from naseview.intake.patients import PatientFolders
-from naseview.intake.photos import MAX_UPLOAD_BYTES, upload_too_large
 from naseview.intake.session import AnnotationSession, InProgress, default_case_id
 from naseview.landmarks import LANDMARKS, VIEWS
 from naseview.records import PatientRecords
@@ -156,11 +154,10 @@ class AnnotatePage:
         self._last_upload = 0.0
         self._taken_id: str | None = None      # an id typed that another patient has
         self._build_gui()
-        # a tab's upload buttons are buffered by that tab's GUI: the limit watches there
-        limited: UploadScope = server if client is None else ClientAsServer(client)
-        self.upload_limit = UploadLimit(limited, MAX_UPLOAD_BYTES, self._on_upload_refused)
+        # the server's limit holds on every connection; these buttons are the uploads
+        self.upload_limit = UploadLimit.of(server)
         for btn in self.uploads.values():
-            self.upload_limit.watch(btn)
+            self.upload_limit.watch(btn, self._on_upload_refused)
         threading.Thread(target=self.diagrams.warm, name="naseview-diagrams",
                          daemon=True).start()
 
@@ -419,7 +416,8 @@ class AnnotatePage:
                 log.debug("naseview: could not reset the app camera", exc_info=True)
 
     def close(self) -> None:
-        self.upload_limit.close()
+        for btn in self.uploads.values():
+            self.upload_limit.unwatch(btn)
         self._queue.put(None)
         with self._hint_cond:
             self._hint_request = -2
@@ -469,10 +467,8 @@ class AnnotatePage:
         self.show_error(None)
         self.submit(self._update_panel)
 
-    def _on_upload_refused(self, client: viser.ClientHandle | None, name: str,
-                           nbytes: int) -> None:
-        """:class:`UploadLimit`: an upload went over the limit while streaming."""
-        message = upload_too_large(name or "photo", nbytes)
+    def _on_upload_refused(self, client: viser.ClientHandle | None, message: str) -> None:
+        """:class:`UploadLimit`: an upload was refused while streaming (``message``)."""
         self.submit(lambda: self.show_error(message, client))
 
     def _on_case_id(self) -> None:

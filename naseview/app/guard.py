@@ -58,6 +58,7 @@ import websockets.asyncio.server
 from websockets.asyncio.server import ServerConnection
 from websockets.http11 import Request, Response
 
+from naseview.app.upload_limit import UploadLimit
 from naseview.errors import NaseviewError
 
 log = logging.getLogger(__name__)
@@ -115,14 +116,31 @@ def retitled(response: Response, title: str = PAGE_TITLE) -> Response:
     return replace(response, headers=headers, body=payload)
 
 
+_HOST_RE = re.compile(r"(?:\[(?P<ip6>[0-9A-Fa-f:.]+)\]|(?P<name>[A-Za-z0-9.-]+))"
+                      r"(?::(?P<port>[0-9]{1,5}))?")
+"""A ``Host`` header: a name, an IPv4 address or a bracketed IPv6 address, then an optional
+``:port`` (RFC 9110 section 7.2), and nothing else: no user info (``evil.com@localhost``), no
+path (``localhost:8080/x``), no spaces inside."""
+
+
 def _split_host(value: str) -> tuple[str, int | None]:
-    """``"Host"`` header value -> (lower-case name without brackets, port or None)."""
-    parsed = urlsplit("//" + value.strip())
-    try:
-        port = parsed.port
-    except ValueError:
+    """``"Host"`` header value -> (lower-case name without brackets, port or None).
+
+    Parsed strictly (:data:`_HOST_RE`); anything else gives ``("", None)``, which no
+    policy accepts.
+
+    >>> _split_host("LocalHost:8080"), _split_host("[::1]:80")
+    (('localhost', 8080), ('::1', 80))
+    >>> _split_host("evil.com@localhost:8080"), _split_host("localhost:8080/x")
+    (('', None), ('', None))
+    """
+    m = _HOST_RE.fullmatch(value.strip(" \t"))
+    if m is None:
         return "", None
-    return (parsed.hostname or "").lower(), port
+    port = int(m["port"]) if m["port"] is not None else None
+    if port is not None and port > PORT_RANGE[1]:
+        return "", None
+    return (m["ip6"] or m["name"]).lower(), port
 
 
 def _is_ip_literal(name: str) -> bool:
@@ -255,6 +273,72 @@ def refuse_share(server: viser.ViserServer) -> None:
                              lambda _client_id, _msg: refused())
 
 
+def _client_error(client_id: Any, message: Any, e: Exception) -> None:
+    """One log line for a client message viser could not apply (a client's error)."""
+    log.warning("naseview: refused a %s from client %s: %s", type(message).__name__,
+                client_id, " ".join(f"{type(e).__name__}: {e}".split())[:300])
+
+
+def _quiet(handle: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
+    """``_handle_incoming_message`` that logs a client's bad message in one line.
+
+    viser applies a message on the event loop (its fields to a GUI element, a camera, a
+    transfer); a message with a wrong value ("abc" for a slider, an unknown field, a
+    number where an object belongs) raises there, and asyncio printed "Task exception
+    was never retrieved" with a full traceback. naseview's own callbacks do not run here
+    (viser runs them in its thread pool, each behind the app's error handler), so what
+    raises here comes from what the client sent."""
+
+    async def quiet(client_id: Any, message: Any) -> None:
+        try:
+            await handle(client_id, message)
+        except Exception as e:
+            _client_error(client_id, message, e)
+
+    return quiet
+
+
+class _UndecodableMessage(logging.Filter):
+    """On ``websockets.server``: a connection closed because the client sent bytes that
+    are not a viser message (an unknown type, a missing field) is one line, not a
+    traceback; any other failure of a connection handler keeps its traceback."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        if exc is None or record.getMessage() != "connection handler failed":
+            return True
+        tb = exc.__traceback__
+        frames = []
+        while tb is not None:
+            frames.append(tb.tb_frame.f_code.co_name)
+            tb = tb.tb_next
+        if "deserialize" in frames:
+            record.msg = ("naseview: closed a connection whose client sent a message that "
+                          "is not viser's (%s)")
+            record.args = (" ".join(f"{type(exc).__name__}: {exc}".split())[:300],)
+            record.levelno, record.levelname = logging.WARNING, "WARNING"
+            record.exc_info, record.exc_text = None, None
+        return True
+
+
+_UNDECODABLE = _UndecodableMessage()
+
+
+def quiet_client_errors(server: viser.ViserServer) -> None:
+    """Make a client's bad message one log line on ``server``, on every connection."""
+    websock = server._websock_server
+    websock._handle_incoming_message = _quiet(  # type: ignore[method-assign,assignment]
+        websock._handle_incoming_message)
+
+    async def on_connect(conn: Any) -> None:
+        conn._handle_incoming_message = _quiet(conn._handle_incoming_message)
+
+    websock.on_client_connect(on_connect)
+    logger = logging.getLogger("websockets.server")
+    if _UNDECODABLE not in logger.filters:
+        logger.addFilter(_UNDECODABLE)
+
+
 def _busy(host: str, port: int) -> NaseviewError:
     return NaseviewError(f"port {port} on {host} is in use (another naseview or another "
                          "program); stop it or pass a free --port")
@@ -306,7 +390,8 @@ def guarded_viser_server(host: str, port: int, **kwargs: Any) -> viser.ViserServ
             which; every request is checked against the port it arrived on).
         **kwargs: passed to :class:`viser.ViserServer`.
     Returns:
-        the started server, with :func:`refuse_share` applied and the share button hidden.
+        the started server, with :func:`refuse_share` applied, the share button hidden
+        and the upload limit on every connection (:class:`UploadLimit`).
     Raises:
         NaseviewError: see :func:`check_listen`; a busy port is an error, never a silent
             move to the next one.
@@ -319,5 +404,7 @@ def guarded_viser_server(host: str, port: int, **kwargs: Any) -> viser.ViserServ
         server.stop()                       # (its requests were refused: wrong port)
         raise _busy(host, port)
     refuse_share(server)
+    quiet_client_errors(server)
+    UploadLimit.install(server)        # every connection, before any tab can connect
     server.gui.configure_theme(show_share_button=False)
     return server

@@ -305,7 +305,10 @@ class Panels:
             def run(event: viser.GuiEvent[Any]) -> None:
                 try:
                     fn(event)
-                except Exception as e:  # keep the server up, show the error
+                except NaseviewError as e:  # the user's mistake: one line, no traceback
+                    log.info("naseview: %s", e)
+                    self.show_error(str(e))
+                except Exception as e:  # a bug: keep the server up, show the error
                     log.exception("naseview: action failed")
                     self.show_error(f"{type(e).__name__}: {e}")
             return run

@@ -51,6 +51,23 @@ AppState = Callable[[], Mapping[str, Any]]
 """The app's ``app_state`` (what a session stores besides the edits)."""
 
 
+def summarise(problems: list[str]) -> str:
+    """Several problems as one short line: the count and the first one (a moved case
+    folder makes every simulation report the same problem; joined, they were one line of
+    1,776 characters).
+
+    >>> summarise(["a.json: case folder not found"])
+    'a.json: case folder not found'
+    >>> summarise(["a.json: x", "b.json: x", "c.json: x"])
+    '3 problems; the first: a.json: x'
+    >>> summarise([])
+    ''
+    """
+    if len(problems) <= 1:
+        return problems[0] if problems else ""
+    return f"{len(problems)} problems; the first: {problems[0]}"
+
+
 @dataclass(frozen=True)
 class OpenPlan:
     """How to open a patient (:meth:`PatientWork.begin`).
@@ -153,7 +170,7 @@ class PatientWork:
             except NaseviewError as e:
                 problems.append(str(e))
         if opened.case_dir is None and session is None:
-            raise NaseviewError(" ".join(problems) or (
+            raise NaseviewError(summarise(problems) or (
                 f"{opened.folder}: the patient has no case and no simulation to open; "
                 "open its case folder (naseview serve CASE_DIR)"))
         with self._lock:

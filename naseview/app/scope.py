@@ -59,17 +59,4 @@ def notify(scope: Scope, title: str, body: str, color: NoticeColor = "blue",
             log.debug("naseview: notification to a closed tab dropped", exc_info=True)
 
 
-class ClientAsServer:
-    """A client scope shaped like the server for code that takes a server's ``gui`` and
-    ``get_clients()`` (:class:`naseview.app.upload_limit.UploadLimit`): its GUI is the
-    client's, its only client the client itself."""
-
-    def __init__(self, client: viser.ClientHandle) -> None:
-        self.client = client
-        self.gui = client.gui
-
-    def get_clients(self) -> dict[int, viser.ClientHandle]:
-        return {self.client.client_id: self.client}
-
-
-__all__ = ["ClientAsServer", "NoticeColor", "Scope", "clients_of", "notify"]
+__all__ = ["NoticeColor", "Scope", "clients_of", "notify"]

@@ -146,7 +146,9 @@ def test_an_upload_sending_more_than_it_declared_is_dropped_as_it_streams(page, 
     t = start(ws, button, "bottom.jpg", 2 * PART, 2)      # declares 1 MiB...
     for i in range(2):
         part(ws, button, t, i if i == 0 else 5, b"\x01" * (3 * PART))  # ...sends more
-    wait_for(lambda: "too large" in error_line(page), 10, "the message in the page")
+    wait_for(lambda: "more than" in error_line(page), 10, "the message in the page")
+    assert ("bottom.jpg: the upload sent more than the 1.0 MB it announced; choose the "
+            "photo again") in error_line(page)            # not "1.5 MB is too large"
     assert t not in page.server.gui._current_file_upload_states and buffered(page) == 0
     assert "bottom" not in page.session.photos
 
@@ -156,6 +158,8 @@ def test_uploads_in_parallel_are_bounded(page, ws):
     started = [start(ws, b, f"{k}.jpg", 40 * 2**20, 80) for k, b in enumerate(buttons)]
     extra = start(ws, buttons[0], "again.jpg", 40 * 2**20, 80)   # a fifth one at once
     wait_for(lambda: "again.jpg" in error_line(page), 10, "the fifth upload refused")
+    assert "again.jpg: 4 uploads are already in progress" in error_line(page)
+    assert "too large" not in error_line(page)            # 40 MB is within the limit
     states = page.server.gui._current_file_upload_states
     assert extra not in states and all(t in states for t in started)
 
