@@ -50,6 +50,7 @@ from naseview.app.gui_value import set_value
 from naseview.app.landmark_diagrams import LandmarkDiagrams
 from naseview.app.landmark_names import display_name
 from naseview.app.markdown_text import markdown_text
+from naseview.app.memory import limit_malloc_arenas, release_freed_memory
 from naseview.app.patient_work import PatientWork
 from naseview.app.patients_panel import PatientsPanel
 from naseview.app.screen import PATIENT_SCREEN_PATH, Screen, connection_path, nose_view
@@ -286,6 +287,7 @@ class NaseviewApp:
             panel.close()
         if screen is not None:
             screen.close()
+        release_freed_memory()
 
     @property
     def calliper_inputs(self) -> set[str]:
@@ -844,6 +846,7 @@ def start_app(path: Path | None, host: str = "127.0.0.1", port: int = 8080,
         NaseviewError: ``host``:``port`` cannot be listened on (busy port, port out of
             range, an address that is not this computer's).
     """
+    limit_malloc_arenas()            # a tab's memory is reused by the next (app.memory)
     server = guarded_viser_server(host, port, verbose=False)
     try:
         app = NaseviewApp(server, model=model, solver_factory=solver_factory)
