@@ -523,8 +523,15 @@ def check_output_dir(path: str | os.PathLike[str], option: str = "-o") -> Path:
 
 
 @contextlib.contextmanager
-def _folder_lock(folder: Path) -> Iterator[None]:
-    """Exclusive lock on ``folder`` (flock on the folder itself: no lock file is left)."""
+def folder_lock(folder: str | os.PathLike[str]) -> Iterator[None]:
+    """Exclusive lock on ``folder`` (flock on the folder itself: no lock file is left),
+    held until the ``with`` block ends; writers of one folder, in this process or in
+    another server, take turns. The lock dies with its process (a killed writer never
+    leaves it held). The folder must exist.
+
+    Raises:
+        NaseviewError: the folder cannot be opened (one line: path, reason, fix).
+    """
     if fcntl is None:  # pragma: no cover
         yield
         return
@@ -642,7 +649,7 @@ def write_file_set(folder: str | os.PathLike[str], files: Mapping[str, bytes],
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as e:
         raise write_error(folder, e, kept=False) from None
-    with _folder_lock(folder):
+    with folder_lock(folder):
         recover_file_sets(folder, names + stale)
         _check_not_blocked(folder, names + stale)
         try:

@@ -37,7 +37,6 @@ from naseview.camera import DISTANCE_MM
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
-from naseview.intake.annotation_file import safe_case_id
 from naseview.intake.patients import PatientFolders
 from naseview.reconstruction import calliper_distances
 from naseview.report import DISCLAIMER, ReportData, measurement_rows, write_report
@@ -364,7 +363,9 @@ class PatientMode:
     def write_report(self, deidentified: bool | None = None) -> Path:
         """Write ``WORK/<patient>/report/report[-deidentified].html`` (+ PNGs): the open
         patient's folder (two cases with the same case id are two patients), or, for a
-        case that is not kept (the demo), the folder named by its case id.
+        case that is not kept (the demo, a session opened directly), the folder named by
+        its case id unless that is a patient's (then ``<id>-2``...:
+        :meth:`PatientFolders.unkept_report_dir`).
 
         Raises:
             NaseviewError: a symbolic link on the way (a report, photos included, is never
@@ -374,7 +375,10 @@ class PatientMode:
         deid = self.deid.value if deidentified is None else deidentified
         name = "report-deidentified.html" if deid else "report.html"
         folders = PatientFolders(self.work_dir)
-        pid = self.app.patient_id or safe_case_id(data.case_id) or "case"
+        pid = self.app.patient_id
+        if pid is None:        # not kept: never into another patient's folder
+            unkept = folders.unkept_report_dir(data.case_id)
+            pid = unkept.parent.name
         report_dir = folders.inside(pid, folders.report_dir(pid))
         return write_report(data, report_dir / name, deidentified=bool(deid))
 

@@ -148,7 +148,8 @@ class PatientWork:
     # opening
     def begin(self, pid: str, slug: str | None = None) -> OpenPlan:
         """Save and stop the open simulation, then find how to open patient ``pid``
-        (simulation ``slug``, default its latest usable one).
+        (simulation ``slug``, default its latest usable one, or the newest one as saved
+        when a stop came between a new reconstruction and its autosave).
 
         Raises:
             NaseviewError: no such patient, or its simulation ``slug`` cannot be read.
@@ -156,6 +157,8 @@ class PatientWork:
         opened = self.records.open_patient(pid)
         problems = list(opened.problems)
         session: Session | None = None
+        if slug is None:
+            slug = _interrupted(opened.simulations, opened.simulation, opened.stale)
         if slug is not None:
             stale = slug in opened.stale
             session = self.records.load_simulation(pid, slug, allow_stale=stale)
@@ -344,6 +347,23 @@ class PatientWork:
         with self._lock:
             self._stop_autosave()
         self.records.close()
+
+
+def _interrupted(listed: tuple[SimulationInfo, ...], latest: SimulationInfo | None,
+                 stale: Mapping[str, str]) -> str | None:
+    """The simulation to reopen as saved after a stop between two commits, or None.
+
+    A parameter change commits the new reconstruction first and the simulation follows
+    with its next autosave; a crash (or kill) in between leaves the newest simulation
+    recorded on the previous reconstruction. It is still the surgeon's latest work: it
+    reopens on its own saved baseline (edits and parameters as last saved) rather than
+    an empty "Simulation N" being started."""
+    newest = next((i for i in listed if i.problem is None), None)
+    if newest is None or newest.slug not in stale or newest.reconstruction_sha256 is None:
+        return None
+    if latest is not None and latest.modified_ns >= newest.modified_ns:
+        return None
+    return newest.slug
 
 
 def _call_each(listeners: list[Callable[[], None]], what: str) -> None:

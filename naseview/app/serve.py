@@ -24,6 +24,7 @@ import json
 import logging
 import os
 import re
+import signal
 import threading
 import time
 import traceback
@@ -896,20 +897,61 @@ def serve_command(args: argparse.Namespace) -> int:
               "this page (patient data)", flush=True)
     if not getattr(args, "no_browser", False):
         open_browser(address)
+    previous = _stop_on_signals()
     try:
         print("naseview: press Ctrl-C to stop", flush=True)
         while True:
             time.sleep(1.0)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, _Stop):
         pass
     finally:
+        _ignore_signals()  # a second SIGTERM / SIGHUP must not cut the last save short
         # a reconstruction or solve still in native code when the interpreter exits
         # aborts the process ("terminate called without an active exception"): let it end
         if app.source is not None or app.controller is not None:  # a job ever ran
             app.wait_ready(SHUTDOWN_WAIT_S)
         app.close()
         server.stop()
+        _restore_signals(previous)
     return 0
+
+
+STOP_SIGNALS = tuple(getattr(signal, n) for n in ("SIGTERM", "SIGHUP") if hasattr(signal, n))
+"""Signals that stop ``naseview serve`` like Ctrl-C (SIGINT): ``kill``, closing the
+terminal, logging out. Each ends the wait loop, so the open simulation's pending save is
+written (:meth:`NaseviewApp.close`) before the process exits."""
+
+
+class _Stop(Exception):
+    """Raised in the main thread by a stop signal (:data:`STOP_SIGNALS`)."""
+
+
+def _raise_stop(signum: int, frame: object) -> None:
+    raise _Stop(signal.Signals(signum).name)
+
+
+def _stop_on_signals() -> dict[int, Any]:
+    """Install :func:`_raise_stop` for :data:`STOP_SIGNALS`; the previous handlers."""
+    previous: dict[int, Any] = {}
+    for sig in STOP_SIGNALS:
+        try:
+            previous[sig] = signal.signal(sig, _raise_stop)
+        except ValueError:  # not the main thread (embedded): the caller stops us
+            break
+    return previous
+
+
+def _ignore_signals() -> None:
+    for sig in STOP_SIGNALS:
+        try:
+            signal.signal(sig, signal.SIG_IGN)
+        except ValueError:
+            break
+
+
+def _restore_signals(previous: Mapping[int, Any]) -> None:
+    for sig, handler in previous.items():
+        signal.signal(sig, handler if handler is not None else signal.SIG_DFL)
 
 
 __all__ = ["NaseviewApp", "SolverFactory", "demo_case_dir", "serve_command", "start_app"]

@@ -52,7 +52,14 @@ from numpy.typing import ArrayLike
 from naseview.case import Case, View, parse_scale_key
 from naseview.case import write_case as _write_case
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_bytes, atomic_write_json, one_line, read_image, read_json
+from naseview.fileio import (
+    atomic_write_bytes,
+    atomic_write_json,
+    folder_lock,
+    one_line,
+    read_image,
+    read_json,
+)
 from naseview.intake.annotation_file import (
     ANNOTATION_FILE,
     ANNOTATION_FORMAT,
@@ -619,17 +626,33 @@ class AnnotationSession:
 
 
 def _taken(out: Path) -> NaseviewError:
-    return NaseviewError(f"{out}: another patient's case is already there; choose a "
-                         "different case id (nothing was overwritten)")
+    return NaseviewError(f"{out}: patient {out.parent.name} exists (another patient's case "
+                         "is already there); choose a different case id (nothing was "
+                         "overwritten; this patient's photos and clicks are kept)")
 
 
 def _write_case_dir(case: Case, out: Path, owns: Callable[[Path], bool]) -> None:
     """Write ``case`` to ``out`` through a temporary sibling folder and a rename (see
     :meth:`AnnotationSession.write_case`); ``owns(out)`` says whether ``out`` may be
-    replaced."""
+    replaced.
+
+    The whole check-and-write holds :func:`~naseview.fileio.folder_lock` of the patient
+    folder (``out``'s parent): two "Reconstruct" presses for one new id (two tabs, two
+    servers) take turns, so the second sees the first one's case and is refused instead
+    of replacing it (or losing its temporary folder to the first one's clean-up)."""
     parent = out.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise NaseviewError(f"{out}: cannot write the case here ({one_line(e)}); choose "
+                            "a writable work folder (NASEVIEW_WORK_DIR)") from None
+    with folder_lock(parent):
+        _write_case_dir_locked(case, out, owns)
+
+
+def _write_case_dir_locked(case: Case, out: Path, owns: Callable[[Path], bool]) -> None:
+    parent = out.parent
+    try:
         for p in parent.iterdir():       # leftovers of an interrupted write of this case
             if re.fullmatch(rf"\.{re.escape(out.name)}\.\w+\.(tmp|old)", p.name) \
                     and p.is_dir() and not p.is_symlink():

@@ -7,6 +7,9 @@ worker waits until :attr:`Autosave.delay` seconds pass without another change (a
 of undos is one write), waits for the solve to finish (so the file holds the mesh on
 screen), and writes the session file ``WORK/<id>/simulations/<slug>.json`` atomically
 (:func:`naseview.fileio.atomic_write_bytes`: a crash mid-write leaves the previous file).
+A write is a compare-and-swap under :func:`naseview.fileio.folder_lock` of the
+simulations folder: if the file changed since this window last wrote or read it (another
+tab's server, another window), nothing is written and the window is told in one line.
 Nothing is written during a drag; a state equal to the one last written is not written
 again. A failed write (disk full) is kept as :attr:`Autosave.error` (one line) and sent to
 ``on_error``; the next change tries again. :meth:`Autosave.close` writes what is pending.
@@ -34,7 +37,7 @@ from typing import Any
 from naseview.editing.controller import EditController
 from naseview.editing.session import Session, SessionRecord, check_name, session_to_json
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_bytes, one_line
+from naseview.fileio import atomic_write_bytes, folder_lock, one_line
 from naseview.intake.patients import PatientFolders
 from naseview.records.patient import now_iso
 from naseview.records.simulations import session_bytes
@@ -190,13 +193,15 @@ class Autosave:
                                            "record": dataclasses.replace(
                                                record, modified=now_iso()).to_json()}
                     out.update(obj)
-                    if _file_stamp(self.path) != self._stamp:
-                        raise NaseviewError(
-                            f"{self.path}: changed by another naseview window since this "
-                            "one opened it; not overwritten (the other edits are kept). "
-                            "Reopen the simulation, or duplicate it to keep both")
-                    atomic_write_bytes(self.path, session_bytes(out))
-                    self._stamp = _file_stamp(self.path)
+                    data = session_bytes(out)
+                    with folder_lock(self.path.parent):  # compare and swap, across servers
+                        if _file_stamp(self.path) != self._stamp:
+                            raise NaseviewError(
+                                f"{self.path}: changed by another naseview window since "
+                                "this one opened it; not overwritten (the other edits are "
+                                "kept). Reopen the simulation, or duplicate it to keep both")
+                        atomic_write_bytes(self.path, data)
+                        self._stamp = _file_stamp(self.path)
                     self.saves += 1
                     self._last_key = key
                     self._notify_saved()

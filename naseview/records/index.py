@@ -180,11 +180,20 @@ class PatientIndex:
         finally:
             con.close()
 
-    def _discard(self) -> None:
-        """Delete an index that is not a database (it is only a cache)."""
+    def _discard(self) -> bool:
+        """Delete an index that is not a database (it is only a cache). False when it
+        cannot be deleted (a folder in its place, a read-only work folder): the listing
+        then scans the folders."""
         for suffix in ("", "-wal", "-shm", "-journal"):
-            with contextlib.suppress(FileNotFoundError):
+            try:
                 os.unlink(f"{self.path}{suffix}")
+            except FileNotFoundError:
+                continue
+            except OSError as e:
+                log.warning("patient index %s%s: cannot delete it (%s); listing the "
+                            "folders", self.path, suffix, e.strerror or e)
+                return False
+        return True
 
     def _prepare(self, con: sqlite3.Connection) -> bool:
         """Tables of :data:`SCHEMA`; False when they were (re)made empty."""
@@ -212,8 +221,9 @@ class PatientIndex:
     def patients(self) -> list[PatientSummary]:
         """Every patient of the work folder, newest first, with its simulations.
 
-        Never raises for the index: a locked, damaged or foreign index gives a folder
-        scan (and a damaged one is rebuilt)."""
+        Never raises for the index: a locked, damaged or foreign index, a folder in its
+        place or a read-only work folder gives a folder scan (and a damaged one is
+        rebuilt when it can be)."""
         if not self.folders.root.is_dir():
             self.last_source = "scan"
             return []
@@ -228,7 +238,8 @@ class PatientIndex:
                     log.warning("patient index %s: %s; listing the folders", self.path, e)
                     break
                 log.warning("patient index %s: %s; rebuilding it", self.path, e)
-                self._discard()
+                if not self._discard():
+                    break
             except OSError as e:
                 log.warning("patient index %s: %s; listing the folders", self.path, e)
                 break

@@ -44,7 +44,7 @@ from naseview.editing.session import (
     session_to_json,
 )
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_bytes, one_line, parse_json
+from naseview.fileio import atomic_write_bytes, folder_lock, one_line, parse_json
 from naseview.intake.patients import PatientFolders, is_simulation_slug
 from naseview.records.patient import iso_of_ns, now_iso
 
@@ -295,9 +295,12 @@ def info_of(folders: PatientFolders, pid: str, slug: str) -> SimulationInfo:
 
 def rewrite_record(folders: PatientFolders, pid: str, slug: str, session: Session,
                    record: SessionRecord) -> Path:
-    """Write ``session`` with ``record`` over ``<slug>.json``, atomically."""
-    return atomic_write_bytes(_path(folders, pid, slug), session_bytes(session_to_json(
-        dataclasses.replace(session, record=record))))
+    """Write ``session`` with ``record`` over ``<slug>.json``, atomically (under the
+    simulations folder's lock, so an autosave's compare-and-swap sees it)."""
+    path = _path(folders, pid, slug)
+    data = session_bytes(session_to_json(dataclasses.replace(session, record=record)))
+    with folder_lock(path.parent):
+        return atomic_write_bytes(path, data)
 
 
 def rename_simulation(folders: PatientFolders, pid: str, slug: str, name: str
