@@ -501,8 +501,8 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
 
 def check_not_foreign(out_dir: str | os.PathLike[str],
                       case_dir: str | os.PathLike[str]) -> None:
-    """Before a run: ``out_dir`` is not the case folder (the result would lie among the
-    photos), and holds no mesh file a run writes or removes (``face.ply``, ``nose.stl``,
+    """Before a run: ``out_dir`` is not the case folder nor another case's (one with a
+    ``case.json``: the result would lie among the photos), and holds no mesh file a run writes or removes (``face.ply``, ``nose.stl``,
     ...) unless it is a previous result (it has ``reconstruction.json``, or the commit
     folder of a run killed while moving its set in, which this run finishes): a user's
     own files are never overwritten or deleted.
@@ -516,6 +516,9 @@ def check_not_foreign(out_dir: str | os.PathLike[str],
     if os.path.realpath(out) == os.path.realpath(case_dir):
         raise NaseviewError(f"{out}: is the case folder; give -o another folder (the "
                             "result would lie among the photos)")
+    if (out / "case.json").exists():
+        raise NaseviewError(f"{out}: is another case's folder (it holds case.json); give -o "
+                            "another folder (the result would lie among that case's photos)")
     if (out / RECONSTRUCTION_FILE).exists() or any(
             p.name.startswith((COMMIT_PREFIX, STAGING_PREFIX)) for p in out.iterdir()):
         return                  # a previous result, or one a killed run left to finish

@@ -263,14 +263,19 @@ def test_reconstruct_checks_the_output_folder_before_running(case_dir: Path, tmp
     foreign.mkdir()
     (foreign / "face.ply").write_bytes(b"the user's own scan")
     (foreign / "nose.stl").write_bytes(b"a printed model")
+    other_case = tmp_path / "other-case"                   # another patient's case folder
+    other_case.mkdir()
+    (other_case / "case.json").write_text("{}")
     for target, needle in ((foreign, "holds face.ply, nose.stl, which no naseview result"),
-                           (case_dir, "is the case folder")):
+                           (case_dir, "is the case folder"),
+                           (other_case, "is another case's folder (it holds case.json)")):
         assert main(["reconstruct", str(case_dir), "-o", str(target), "--stages", "1"]) == 2
         err = capsys.readouterr().err.strip()
         assert needle in err and "\n" not in err, err
     assert (foreign / "face.ply").read_bytes() == b"the user's own scan"
     assert (foreign / "nose.stl").read_bytes() == b"a printed model"
     assert not (case_dir / "reconstruction.json").exists()
+    assert sorted(p.name for p in other_case.iterdir()) == ["case.json"]
 
 
 def test_a_first_run_killed_while_moving_in_is_finished_by_the_next(case_dir: Path,
