@@ -41,8 +41,8 @@ from naseview.report.images import (
 from naseview.report.plan import plan_figures, plan_sentences
 from naseview.report.table import (
     MeasurementRow,
+    format_change,
     format_estimate,
-    format_value,
     measurement_rows,
 )
 from naseview.report.views import RENDER_VIEWS, render_views
@@ -193,7 +193,7 @@ def _row(r: MeasurementRow, after: bool) -> str:
     cells = _cell(r["before"], r["unit"], r["sd"])
     if after:
         cells += (_cell(r["after"], r["unit"], r["sd"]) + "<td class='v'>"
-                  + _esc(format_value(r["change"], r["unit"], signed=True, ref=r["before"]))
+                  + _esc(format_change(r["before"], r["after"], r["unit"]))
                   + "</td>")
     return (f"<tr><td class='what'><b>{_esc(r['title'])}</b>{plain}</td>{cells}"
             f"<td class='usual'>{usual}</td></tr>")
@@ -278,7 +278,7 @@ def _appendix(rows: list[MeasurementRow], after: bool) -> list[str]:
             parts.append(f"<tr><td>{_esc(r['title'])}</td>"
                          + _cell(r["before"], r["unit"])
                          + ((_cell(r["after"], r["unit"]) + "<td class='v'>"
-                             + _esc(format_value(r["change"], r["unit"], signed=True))
+                             + _esc(format_change(r["before"], r["after"], r["unit"]))
                              + "</td>") if after else "") + "</tr>")
         parts.append("</table>")
     if clinical:
@@ -349,22 +349,24 @@ def report_html(data: ReportData, deidentified: bool = False, render_size: int =
     return "\n".join(parts), images
 
 
-_PNG_PARTS = ("views", "measurements", "photos")
+PNG_PARTS = ("views", "measurements", "photos")
 """The PNGs a report may have beside its HTML, ``<stem>-<part>.png``."""
 
 
 def write_report(data: ReportData, path: str | os.PathLike[str], deidentified: bool = False,
-                 pngs: bool = True, render_size: int = 480) -> Path:
+                 pngs: bool = True, render_size: int = 480, overwrite: bool = True) -> Path:
     """Write ``path`` (HTML) and, with ``pngs``, ``<stem>-views.png``,
     ``<stem>-measurements.png`` and ``<stem>-photos.png`` beside it, all or nothing
     (:func:`naseview.fileio.write_file_set`); PNGs of an earlier report of that name that
-    this one does not have (the photos, for a de-identified report) are removed.
+    this one does not have (the photos, for a de-identified report) are removed. With
+    ``overwrite`` False an existing HTML or PNG of that name is refused (nothing written).
 
     Returns:
         the HTML path.
     Raises:
-        NaseviewError: not an ``.html`` name, or the folder is not writable / the disk is
-            full (an earlier report is then unchanged).
+        NaseviewError: not an ``.html`` name, the folder is not writable / the disk is
+            full, or (``overwrite`` False) the report exists (an earlier report is then
+            unchanged).
     """
     path = Path(path)
     if path.suffix.lower() not in (".html", ".htm"):
@@ -374,6 +376,7 @@ def write_report(data: ReportData, path: str | os.PathLike[str], deidentified: b
     files = {f"{path.stem}-{name}.png": png_bytes(img)
              for name, img in images.items()} if pngs else {}
     files[path.name] = text.encode("utf-8")
-    write_file_set(path.parent, files,
-                   remove=[f"{path.stem}-{name}.png" for name in _PNG_PARTS])
+    write_file_set(path.parent, files, overwrite=overwrite,
+                   remove=[f"{path.stem}-{name}.png" for name in PNG_PARTS]
+                   if overwrite else [])
     return path
