@@ -45,7 +45,7 @@ from naseview.report.table import (
     format_estimate,
     measurement_rows,
 )
-from naseview.report.views import RENDER_VIEWS, render_views
+from naseview.report.views import OUTLINE_VIEWS, RENDER_VIEWS, render_views
 
 Images = dict[str, np.ndarray]
 """Name -> (H, W, 3) uint8 BGR image."""
@@ -112,7 +112,7 @@ _esc = html.escape
 def _renders(data: ReportData, deidentified: bool, render_size: int
              ) -> tuple[Images, Images | None]:
     """Renders before and (with a simulation) after, sharing the "before" cameras; the
-    "after" images carry the "before" silhouette; textured with the patient's skin when
+    "after" profile carries the "before" silhouette; textured with the patient's skin when
     there is a texture, never in the de-identified version (clean grey nose renders)."""
     skin = None if deidentified else data.texture  # the patient's skin identifies them
     before, masks = render_views(data.V_before, data.F, data.nose_ids, render_size,
@@ -122,7 +122,8 @@ def _renders(data: ReportData, deidentified: bool, render_size: int
     if data.V_after is not None:
         after, _ = render_views(data.V_after, data.F, data.nose_ids, render_size,
                                 nose_only=deidentified, framing=data.V_before,
-                                outline_of=masks, texture=skin)
+                                outline_of={v: masks[v] for v in OUTLINE_VIEWS},
+                                texture=skin)
     return before, after
 
 
@@ -241,6 +242,10 @@ def _photos_section(photos: Mapping[str, np.ndarray]) -> list[str]:
     return parts
 
 
+OUTLINE_SENTENCE = "The blue line on the simulation shows the profile before."
+"""Under the profile pair only (:data:`~naseview.report.views.OUTLINE_VIEWS`)."""
+
+
 def _pairs_section(before: Images, after: Images | None) -> list[str]:
     """One block per view: before and (if any) after side by side, one printed page."""
     parts = []
@@ -254,9 +259,8 @@ def _pairs_section(before: Images, after: Images | None) -> list[str]:
                              f"src='{data_uri(imgs[v])}'>"
                              f"<figcaption>{_esc(label)}</figcaption></figure>")
         parts.append("</div>")
-        if after:
-            parts.append("<p class='meta'>The blue line on the simulation shows the "
-                         "outline before.</p>")
+        if after and v in OUTLINE_VIEWS:
+            parts.append(f"<p class='meta'>{_esc(OUTLINE_SENTENCE)}</p>")
         parts.append("</section>")
     return parts
 

@@ -18,8 +18,16 @@ from naseview.editing.session import save_session
 from naseview.errors import NaseviewError
 from naseview.fileio import write_file_set
 from naseview.measurements import MEASUREMENT_INFO, clinical_measurements
-from naseview.report import measurement_rows, report_command
+from naseview.report import (
+    RENDER_VIEWS,
+    ReportData,
+    measurement_rows,
+    report_command,
+    report_html,
+)
+from naseview.report.page import OUTLINE_SENTENCE
 from naseview.report.table import format_change, format_range
+from naseview.report.views import OUTLINE_BGR
 
 
 def _session(tmp_path: Path) -> Path:
@@ -96,3 +104,25 @@ def test_a_change_is_the_difference_of_the_shown_values():
     assert format_change(10.0, None, "mm") == "—"
     md = measurements_markdown({"nasal_length": -1.36}, {"nasal_length": -1.33})
     assert "| -1.4 | -1.3 | **+0.1** |" in md
+
+
+def _blue(img: np.ndarray) -> int:
+    """Pixels of the outline's blue (BGR 200, 110, 30) in a render."""
+    d = np.abs(img.astype(int) - np.array(OUTLINE_BGR)).max(axis=2)
+    return int((d < 40).sum())
+
+
+def test_the_blue_line_is_the_profile_before_and_said_only_there():
+    V, F, nose, lms = height_field_face()
+    V2 = V + np.exp(-np.sum((V - lms["prn"]) ** 2, axis=1) / 72.0)[:, None] \
+        * np.array([0.0, 3.0, -3.0])
+    data = ReportData("case-5", V, F, nose, clinical_measurements(lms), V2,
+                      clinical_measurements(lms), {})
+    text, imgs = report_html(data, render_size=120)
+    assert text.count(OUTLINE_SENTENCE) == 1
+    assert "outline before" not in text
+    pair = text.split("id='pair-left'")[1].split("</section>")[0]
+    assert OUTLINE_SENTENCE in pair
+    rows = {v: imgs["views"][k * 120:(k + 1) * 120, 120:] for k, v in enumerate(RENDER_VIEWS)}
+    assert _blue(rows["left"]) > 20                 # the profile before, in blue
+    assert _blue(rows["front"]) == 0 and _blue(rows["base"]) == 0   # no head outline
