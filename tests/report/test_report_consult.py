@@ -126,3 +126,23 @@ def test_the_blue_line_is_the_profile_before_and_said_only_there():
     rows = {v: imgs["views"][k * 120:(k + 1) * 120, 120:] for k, v in enumerate(RENDER_VIEWS)}
     assert _blue(rows["left"]) > 20                 # the profile before, in blue
     assert _blue(rows["front"]) == 0 and _blue(rows["base"]) == 0   # no head outline
+
+
+def _readme_row(command: str) -> str:
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    return next(line for line in readme.splitlines()
+                if line.startswith(f"| `naseview {command}"))
+
+
+def test_the_readme_report_row_names_every_option_of_the_command():
+    from naseview.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions
+               if isinstance(a, argparse._SubParsersAction))
+    report = sub.choices["report"]
+    row = _readme_row("report")
+    for action in report._actions:
+        if action.option_strings and action.dest != "help":
+            assert any(o in row for o in action.option_strings), action.option_strings
+    model = _readme_row("model")
+    assert "import-ict ../shared/data/ict-face-model" in model and "offline" in model
