@@ -190,6 +190,11 @@ class NoseEditSolver:
                              f"({hump:.1f} mm): applied {hump + HUMP_MARGIN_MM:.1f} mm, "
                              "which leaves the dorsum straight (more would crease it into "
                              "a saddle)",)
+            above = plan.hump_above_tip
+            if cut > 0.0 and plan.supratip_hump and above is not None:
+                warnings += (f"the measured hump lies in the supratip, {above:.0f} mm above "
+                             "the tip, not on the bony dorsum: lowering it there sharpens "
+                             "the tip; check the profile and the tip",)
             skipped = [m for m in manoeuvres if m not in plan.available]
             if skipped:
                 warnings += (f"manoeuvre(s) {', '.join(skipped)} need landmarks this "

@@ -77,3 +77,11 @@ def test_the_alar_base_control_says_per_side():
     assert plan_figures({"alar_base_narrowing": 3.0}) == [("Alar base narrowing",
                                                            "3 mm per side")]
     assert MANOEUVRES["tip_rotation"].control_label == "Tip rotation (°)"
+
+
+def test_a_hump_measured_in_the_supratip_is_said_to_sharpen_the_tip():
+    for face, said in (("demo", True), ("ict", False)):
+        b, s = _solver(face)
+        warnings = s(b.landmarks, manoeuvres={"hump_reduction": 1.0}).warnings
+        assert any("supratip" in w and "sharpens the tip" in w for w in warnings) == said, \
+            (face, s.plan.hump_above_tip)

@@ -67,7 +67,10 @@ _ALL = (
         "normal of the n-prn line, in proportion to the profile's height above that line, "
         "so the dorsal hump depth falls by the amount; an amount past the measured hump is "
         "applied only up to it (+0.25 mm), where the dorsum is straight (more would crease "
-        "it into a saddle), and the plan says so; n and prn stay; fades to zero on the "
+        "it into a saddle), and the plan says so; a hump measured in the supratip (its "
+        "top within 15 % of the nasal length above the tip) is the lobule's convexity: "
+        "lowering it sharpens the tip, and the plan says that too; n and prn stay; fades "
+        "to zero on the "
         "sidewalls about a fifth of the alar width either side of the midline.",
         "Lower the bump on the bridge of the nose by {amount} mm"),
     ManoeuvreInfo(

@@ -38,7 +38,11 @@ import numpy as np
 
 from naseview.editing.manoeuvres.alar_base import alar_base_field
 from naseview.editing.manoeuvres.columella import columella_setback_field
-from naseview.editing.manoeuvres.dorsum import hump_reduction_field, radix_augmentation_field
+from naseview.editing.manoeuvres.dorsum import (
+    dorsal_profile,
+    hump_reduction_field,
+    radix_augmentation_field,
+)
 from naseview.editing.manoeuvres.frame import NasalFrame, nasal_frame
 from naseview.editing.manoeuvres.info import MANOEUVRES, check_amounts
 from naseview.editing.manoeuvres.tip import (
@@ -68,6 +72,12 @@ NOSE_ONLY: frozenset[str] = frozenset({"hump_reduction", "tip_projection", "tip_
 HUMP_MARGIN_MM = 0.25
 """A hump reduction is applied up to the measured hump plus this (the field leaves a
 little of the measured hump in the supratip at exactly the hump depth)."""
+
+SUPRATIP = 0.15
+"""A measured hump whose highest point lies closer than this fraction of n-prn above prn
+(about 7 mm) is the supratip (the lobule's convexity), not a dorsal hump: lowering it
+there sharpens the tip (the dihedral angles at prn grow by 10-15 deg per mm on the demo
+and james), and the plan says so."""
 
 ROTATION_PROBE_DEG = 10.0
 """Angle (degrees) of the raw rotation field at which the tip rotation's gain is measured."""
@@ -144,11 +154,17 @@ class ManoeuvrePlan:
         self.region_ids: np.ndarray = np.unique(np.concatenate(support)).astype(np.int64)
         self._attach_landmarks()
         self.hump_depth: float | None = None
+        self.hump_above_tip: float | None = None
+        self.supratip_hump = False
         self.rotation_gain = 1.0
-        self._calibrate(landmarks)
+        self._calibrate(landmarks, mid)
 
-    def _calibrate(self, landmarks: Mapping[str, np.ndarray]) -> None:
-        """:attr:`hump_depth` (the rest mesh's measured dorsal hump, mm) and
+    def _calibrate(self, landmarks: Mapping[str, np.ndarray],
+                   mid: np.ndarray | None = None) -> None:
+        """:attr:`hump_depth` (the rest mesh's measured dorsal hump, mm),
+        :attr:`hump_above_tip` (how far the dorsal profile's highest point lies above
+        prn along n-prn, mm), :attr:`supratip_hump` (that is closer than
+        :data:`SUPRATIP` of n-prn: the hump measured is the supratip) and
         :attr:`rotation_gain` (the measured tip rotation's change per degree of the raw
         rotation field, the secant over :data:`ROTATION_PROBE_DEG`, clamped to
         :data:`ROTATION_GAIN`; 1 when it cannot be measured)."""
@@ -156,6 +172,14 @@ class ManoeuvrePlan:
         m0 = clinical_measurements(lms, None, self.V, self.F)
         h = m0.get("dorsal_hump_depth")
         self.hump_depth = None if h is None else max(0.0, float(h))
+        if self.frame is not None and "hump_reduction" in self.available:
+            H, h_max = dorsal_profile(self.V, self.F, self.frame, mid)
+            grid = np.linspace(0.0, 1.0, 201)
+            if h_max > 0.0:
+                peak = float(grid[int(np.argmax(H(grid)))])
+                self.hump_above_tip = (1.0 - peak) * self.frame.length
+        self.supratip_hump = self.hump_above_tip is not None and self.frame is not None \
+            and self.hump_above_tip < SUPRATIP * self.frame.length
         if self._rotation is None or "tip_rotation" not in m0:
             return
         amounts = {"tip_rotation": ROTATION_PROBE_DEG}
