@@ -621,7 +621,7 @@ def recover_file_sets(folder: str | os.PathLike[str], names: Iterable[str] = ())
 
 
 def write_file_set(folder: str | os.PathLike[str], files: Mapping[str, bytes],
-                   remove: Iterable[str] = ()) -> list[Path]:
+                   remove: Iterable[str] = (), overwrite: bool = True) -> list[Path]:
     """Write files that belong together into ``folder``, all or nothing.
 
     The files are written (and fsynced) into a hidden staging folder; renaming it to a
@@ -635,12 +635,15 @@ def write_file_set(folder: str | os.PathLike[str], files: Mapping[str, bytes],
         folder: the folder (created if needed).
         files: file name -> content, in the order they are moved in.
         remove: file names to delete when the new set is in.
+        overwrite: False: refuse (nothing written) when a file of the set already
+            exists, e.g. an earlier report the user may still want (the error names the
+            last such file of ``files``, the index file).
     Returns:
         the paths written, in order.
     Raises:
         NaseviewError: the folder is not writable, the disk is full or a folder holds the
-            name of one of the files; the previous set is then unchanged and nothing is
-            left behind.
+            name of one of the files, or (``overwrite`` False) one of them exists; the
+            previous set is then unchanged and nothing is left behind.
     """
     folder = Path(folder)
     names = _check_names(files)
@@ -652,6 +655,12 @@ def write_file_set(folder: str | os.PathLike[str], files: Mapping[str, bytes],
     with folder_lock(folder):
         recover_file_sets(folder, names + stale)
         _check_not_blocked(folder, names + stale)
+        if not overwrite:
+            taken = [n for n in names if os.path.lexists(folder / n)]
+            if taken:
+                raise NaseviewError(f"{folder / taken[-1]}: already exists and is not "
+                                    "overwritten; choose another name or move it away "
+                                    "(nothing was written)")
         try:
             staging = Path(tempfile.mkdtemp(prefix=STAGING_PREFIX, dir=folder))
         except OSError as e:

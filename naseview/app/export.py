@@ -220,8 +220,9 @@ def measurements_markdown(original: Mapping[str, float],
             return f"{x:.2f}{pm}{u}{flag}" if unit == "" else f"{x:.1f}{pm}{u}{flag}"
 
         if o is not None and s is not None:
-            d = s - o
-            ch = f"{d:+.2f}" if unit == "" else f"{d:+.1f}"
+            k = 2 if unit == "" else 1          # the change of the values as shown
+            d = round(round(s, k) - round(o, k), k) + 0.0
+            ch = f"{d:+.{k}f}"
             ch = f"**{ch}**" if abs(d) >= 0.05 else ch
         else:
             ch = "–"

@@ -228,7 +228,7 @@ class Panels:
                              "manoeuvres combine, Undo takes back one change.</small>")
             self.manoeuvres: dict[str, viser.GuiSliderHandle[float]] = {
                 name: gui.add_slider(
-                    f"{m.title} ({'°' if m.unit == 'deg' else m.unit})", min=m.low,
+                    m.control_label, min=m.low,
                     max=m.high, step=m.step, initial_value=0.0, hint=m.definition)
                 for name, m in MANOEUVRES.items()}
             self.clear_plan = gui.add_button("Clear the plan", icon=viser.Icon.ERASER,

@@ -363,9 +363,8 @@ class PatientMode:
     def write_report(self, deidentified: bool | None = None) -> Path:
         """Write ``WORK/<patient>/report/report[-deidentified].html`` (+ PNGs): the open
         patient's folder (two cases with the same case id are two patients), or, for a
-        case that is not kept (the demo, a session opened directly), the folder named by
-        its case id unless that is a patient's (then ``<id>-2``...:
-        :meth:`PatientFolders.unkept_report_dir`).
+        case that is not kept (the demo), ``WORK/.reports/<case id>/``: a report makes
+        no patient folder (:data:`LOOSE_REPORTS`).
 
         Raises:
             NaseviewError: a symbolic link on the way (a report, photos included, is never
@@ -376,10 +375,11 @@ class PatientMode:
         name = "report-deidentified.html" if deid else "report.html"
         folders = PatientFolders(self.work_dir)
         pid = self.app.patient_id
-        if pid is None:        # not kept: never into another patient's folder
-            unkept = folders.unkept_report_dir(data.case_id)
-            pid = unkept.parent.name
-        report_dir = folders.inside(pid, folders.report_dir(pid))
+        if pid:
+            report_dir = folders.inside(pid, folders.report_dir(pid))
+        else:
+            report_dir = _no_link(folders.root, Path(LOOSE_REPORTS)
+                                  / (safe_case_id(data.case_id) or "case"))
         return write_report(data, report_dir / name, deidentified=bool(deid))
 
     def download_report(self, client: viser.ClientHandle | None = None) -> None:
@@ -399,6 +399,27 @@ class PatientMode:
                 self._notify(f"Report failed: {e}", "red", client)
 
         threading.Thread(target=job, name="naseview-report", daemon=True).start()
+
+
+LOOSE_REPORTS = ".reports"
+"""Folder of the work folder for the reports of cases that are not patients (the demo):
+a leading dot is never a patient id, so it is never listed as a patient."""
+
+
+def _no_link(root: Path, rel: Path) -> Path:
+    """``root / rel`` when no part of it below ``root`` is a symbolic link.
+
+    Raises:
+        NaseviewError: a symbolic link on the way, naming it and the fix.
+    """
+    here = root
+    for part in rel.parts:
+        here = here / part
+        if here.is_symlink():
+            raise NaseviewError(f"{here}: is a symbolic link; naseview follows no link "
+                                f"inside the work folder {root} (replace it by the folder "
+                                "itself)")
+    return root / rel
 
 
 def _line(text: object, limit: int = 120) -> str:

@@ -36,14 +36,10 @@ from scipy.spatial import cKDTree
 
 from naseview.editing.baseline import Baseline, Landmarks, Solved, copy_landmarks, landmarks_equal
 from naseview.editing.manoeuvres import ManoeuvrePlan, folded_triangles
+from naseview.editing.manoeuvres.plan import HUMP_MARGIN_MM
 from naseview.landmarks import LANDMARK_IDS
 from naseview.measurements import clinical_measurements
 from naseview.stage3_mesh import NoseDeformer, RefineParams, deform_region
-
-HUMP_MARGIN_MM = 0.25
-"""A hump reduction more than this beyond the measured dorsal hump is warned about: the
-dorsum it leaves is concave (the hump measure, 0 for a straight or concave dorsum, cannot
-show it)."""
 
 FIXED_LANDMARKS: tuple[str, ...] = ("g", "mf_l", "mf_r")
 """Bony reference points outside the nose: shown, never dragged."""
@@ -187,12 +183,18 @@ class NoseEditSolver:
                 if k in shown:
                     shown[k] = shown[k] + d
             lms = shown
-            hump = self.baseline.measurements.get("dorsal_hump_depth")
+            hump = plan.hump_depth
             cut = float(manoeuvres.get("hump_reduction", 0.0))
             if hump is not None and cut > hump + HUMP_MARGIN_MM:
                 warnings += (f"hump reduction {cut:.1f} mm is more than the measured hump "
-                             f"({hump:.1f} mm): the dorsum becomes concave (a saddle) by "
-                             f"about {cut - hump:.1f} mm",)
+                             f"({hump:.1f} mm): applied {hump + HUMP_MARGIN_MM:.1f} mm, "
+                             "which leaves the dorsum straight (more would crease it into "
+                             "a saddle)",)
+            above = plan.hump_above_tip
+            if cut > 0.0 and plan.supratip_hump and above is not None:
+                warnings += (f"the measured hump lies in the supratip, {above:.0f} mm above "
+                             "the tip, not on the bony dorsum: lowering it there sharpens "
+                             "the tip; check the profile and the tip",)
             skipped = [m for m in manoeuvres if m not in plan.available]
             if skipped:
                 warnings += (f"manoeuvre(s) {', '.join(skipped)} need landmarks this "

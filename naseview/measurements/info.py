@@ -168,14 +168,19 @@ _CLINICAL: list[MeasurementInfo] = [
         None, _CRUMLEY, "Crumley height ratio", "How tall the nose is compared with its "
         "length.", ("n", "prn", "ac_l", "ac_r"), group="tip"),
     MeasurementInfo(
-        "columellar_show", "mm", "columellar show: largest vertical gap, in the lateral "
+        "columellar_show", "mm", "columellar show: vertical gap, in the lateral "
         "projection, between the alar rim (the lateral half of the nostril outline) and "
-        "the columella's lower border (the mesh profile c-sn) over the columella's length; "
-        "mean of both sides; an approximation of Gunter's alar-columellar distance (2-4 mm "
-        "in total)", (2.0, 4.0),
+        "the columella's lower border (the mesh profile c-sn) at the middle of the "
+        "columella (half-way from sn to c); mean of both sides; an approximation of "
+        "Gunter's alar-columellar distance (2-4 mm in total)", (2.0, 4.0),
         _GUNTER, "Columellar show", "How much of the skin between the nostrils shows below "
         "the nostril rims, seen from the side.",
         ("c", "sn", "sill_l", "sill_r", "mesh"), group="tip"),
+    MeasurementInfo(
+        "tip_width", "mm", "tip width (domal distance): 3D distance between the dome "
+        "points md_l-md_r, the tip-defining points of the lobule; no established norm in "
+        "mm", None, "", "Tip width", "How wide the tip of the nose is, between its two "
+        "highlights.", ("md_l", "md_r"), group="tip"),
     # ---- width
     MeasurementInfo(
         "nasal_width", "mm", "nasal width: 3D distance alare-alare (al_l-al_r); the "

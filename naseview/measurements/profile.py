@@ -33,14 +33,16 @@ Measurements (all in the lateral projection, like a lateral photograph):
 - ``radix_height`` (mm): ``(n - mf) . anterior``, mf = mean of mf_l, mf_r (3D); ``radix_level``
   (mm): ``(n - mf) . up``, + when n lies above the medial orbital rims' landmark.
 - ``columellar_show`` (mm): how far the columella shows below the alar rim in the lateral
-  view: per side, the largest height of the alar rim (the lateral half of the nostril
+  view: per side, the height of the alar rim (the lateral half of the nostril
   outline ``sill_l`` / ``sill_r``: its points farther from the midline than the
   outline's median) above the columella's lower border (the mesh profile between c and
   sn, interpolated at the rim point's anterior position; without a mesh profile the
-  columella tangent) over the columella's anterior extent (c..sn), averaged over the
-  sides. An approximation of Gunter's alar-columellar distance (alar rim to columella on
-  the lateral view, 2-4 mm); the outlines come from the bottom view, so a rim part hidden
-  in the lateral view still counts.
+  columella tangent) at the middle of the columella (half-way from sn to c in the
+  lateral projection, interpolated between the rim points; the nearest rim point when
+  the rim does not reach it), averaged over the sides. An approximation of Gunter's
+  alar-columellar distance (alar rim to columella on the lateral view, 2-4 mm); the
+  outlines come from the bottom view, so a rim part hidden in the lateral view still
+  counts.
 """
 
 from __future__ import annotations
@@ -327,6 +329,12 @@ def _radix(landmarks: Mapping[str, np.ndarray], plane: MidlinePlane) -> dict[str
     return {"radix_height": float(d @ plane.anterior), "radix_level": float(d @ plane.up)}
 
 
+MID_COLUMELLA = 0.5
+"""Where along the columella (0 at sn, 1 at c, in the lateral projection) the columellar
+show is read: Gunter's alar-columellar distance is taken at the middle of the nostril;
+at sn the alar base stands far above the columella's foot, which is no "show"."""
+
+
 def _columellar_show(landmarks: Mapping[str, np.ndarray], plane: MidlinePlane,
                      sn2: np.ndarray, d_col: np.ndarray, sills: list[np.ndarray],
                      columella: np.ndarray | None = None) -> float | None:
@@ -353,5 +361,8 @@ def _columellar_show(landmarks: Mapping[str, np.ndarray], plane: MidlinePlane,
             h_col = np.interp(R[rim, 0], columella[o, 0], columella[o, 1])
         else:
             h_col = sn2[1] + (R[rim, 0] - sn2[0]) * d_col[1] / d_col[0]
-        gaps.append(float((R[rim, 1] - h_col).max()))
+        gap = R[rim, 1] - h_col
+        t = (R[rim, 0] - float(sn2[0])) / (float(c2[0]) - float(sn2[0]))
+        o = np.argsort(t)
+        gaps.append(float(np.interp(MID_COLUMELLA, t[o], gap[o])))
     return float(np.mean(gaps)) if gaps else None

@@ -33,6 +33,7 @@ from naseview.measurements.section import Topology
 NAMED_DISTANCES: tuple[tuple[str, str, str], ...] = (
     ("nasal_length", "n", "prn"), ("nasal_height", "n", "sn"),
     ("nasal_width", "al_l", "al_r"), ("alar_base", "ac_l", "ac_r"),
+    ("tip_width", "md_l", "md_r"),
 )
 """Rhinometric distances: (name, landmark a, landmark b)."""
 

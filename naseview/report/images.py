@@ -14,7 +14,7 @@ import numpy as np
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
 from naseview.report.data import DISCLAIMER
-from naseview.report.table import MeasurementRow, format_value
+from naseview.report.table import MeasurementRow, format_change, format_value
 from naseview.report.views import RENDER_VIEWS
 
 
@@ -106,7 +106,7 @@ def measurements_image(rows: list[MeasurementRow], width: int = 900) -> np.ndarr
         vals = (r["title"] + (" (calliper)" if r["calliper"] else "") + est,
                 format_value(r["before"], r["unit"]),
                 format_value(r["after"], r["unit"]),
-                format_value(r["change"], r["unit"], signed=True, ref=r["before"]),
+                format_change(r["before"], r["after"], r["unit"]),
                 r["usual"].replace("usual range ", ""))
         for j, (x, t) in enumerate(zip(cols, vals, strict=True)):
             grey = (120, 120, 120) if j == 4 else (0, 0, 0)

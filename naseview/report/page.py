@@ -41,11 +41,11 @@ from naseview.report.images import (
 from naseview.report.plan import plan_figures, plan_sentences
 from naseview.report.table import (
     MeasurementRow,
+    format_change,
     format_estimate,
-    format_value,
     measurement_rows,
 )
-from naseview.report.views import RENDER_VIEWS, render_views
+from naseview.report.views import OUTLINE_VIEWS, RENDER_VIEWS, render_views
 
 Images = dict[str, np.ndarray]
 """Name -> (H, W, 3) uint8 BGR image."""
@@ -112,7 +112,7 @@ _esc = html.escape
 def _renders(data: ReportData, deidentified: bool, render_size: int
              ) -> tuple[Images, Images | None]:
     """Renders before and (with a simulation) after, sharing the "before" cameras; the
-    "after" images carry the "before" silhouette; textured with the patient's skin when
+    "after" profile carries the "before" silhouette; textured with the patient's skin when
     there is a texture, never in the de-identified version (clean grey nose renders)."""
     skin = None if deidentified else data.texture  # the patient's skin identifies them
     before, masks = render_views(data.V_before, data.F, data.nose_ids, render_size,
@@ -122,7 +122,8 @@ def _renders(data: ReportData, deidentified: bool, render_size: int
     if data.V_after is not None:
         after, _ = render_views(data.V_after, data.F, data.nose_ids, render_size,
                                 nose_only=deidentified, framing=data.V_before,
-                                outline_of=masks, texture=skin)
+                                outline_of={v: masks[v] for v in OUTLINE_VIEWS},
+                                texture=skin)
     return before, after
 
 
@@ -193,7 +194,7 @@ def _row(r: MeasurementRow, after: bool) -> str:
     cells = _cell(r["before"], r["unit"], r["sd"])
     if after:
         cells += (_cell(r["after"], r["unit"], r["sd"]) + "<td class='v'>"
-                  + _esc(format_value(r["change"], r["unit"], signed=True, ref=r["before"]))
+                  + _esc(format_change(r["before"], r["after"], r["unit"]))
                   + "</td>")
     return (f"<tr><td class='what'><b>{_esc(r['title'])}</b>{plain}</td>{cells}"
             f"<td class='usual'>{usual}</td></tr>")
@@ -241,6 +242,10 @@ def _photos_section(photos: Mapping[str, np.ndarray]) -> list[str]:
     return parts
 
 
+OUTLINE_SENTENCE = "The blue line on the simulation shows the profile before."
+"""Under the profile pair only (:data:`~naseview.report.views.OUTLINE_VIEWS`)."""
+
+
 def _pairs_section(before: Images, after: Images | None) -> list[str]:
     """One block per view: before and (if any) after side by side, one printed page."""
     parts = []
@@ -254,9 +259,8 @@ def _pairs_section(before: Images, after: Images | None) -> list[str]:
                              f"src='{data_uri(imgs[v])}'>"
                              f"<figcaption>{_esc(label)}</figcaption></figure>")
         parts.append("</div>")
-        if after:
-            parts.append("<p class='meta'>The blue line on the simulation shows the "
-                         "outline before.</p>")
+        if after and v in OUTLINE_VIEWS:
+            parts.append(f"<p class='meta'>{_esc(OUTLINE_SENTENCE)}</p>")
         parts.append("</section>")
     return parts
 
@@ -278,7 +282,7 @@ def _appendix(rows: list[MeasurementRow], after: bool) -> list[str]:
             parts.append(f"<tr><td>{_esc(r['title'])}</td>"
                          + _cell(r["before"], r["unit"])
                          + ((_cell(r["after"], r["unit"]) + "<td class='v'>"
-                             + _esc(format_value(r["change"], r["unit"], signed=True))
+                             + _esc(format_change(r["before"], r["after"], r["unit"]))
                              + "</td>") if after else "") + "</tr>")
         parts.append("</table>")
     if clinical:
@@ -349,22 +353,24 @@ def report_html(data: ReportData, deidentified: bool = False, render_size: int =
     return "\n".join(parts), images
 
 
-_PNG_PARTS = ("views", "measurements", "photos")
+PNG_PARTS = ("views", "measurements", "photos")
 """The PNGs a report may have beside its HTML, ``<stem>-<part>.png``."""
 
 
 def write_report(data: ReportData, path: str | os.PathLike[str], deidentified: bool = False,
-                 pngs: bool = True, render_size: int = 480) -> Path:
+                 pngs: bool = True, render_size: int = 480, overwrite: bool = True) -> Path:
     """Write ``path`` (HTML) and, with ``pngs``, ``<stem>-views.png``,
     ``<stem>-measurements.png`` and ``<stem>-photos.png`` beside it, all or nothing
     (:func:`naseview.fileio.write_file_set`); PNGs of an earlier report of that name that
-    this one does not have (the photos, for a de-identified report) are removed.
+    this one does not have (the photos, for a de-identified report) are removed. With
+    ``overwrite`` False an existing HTML or PNG of that name is refused (nothing written).
 
     Returns:
         the HTML path.
     Raises:
-        NaseviewError: not an ``.html`` name, or the folder is not writable / the disk is
-            full (an earlier report is then unchanged).
+        NaseviewError: not an ``.html`` name, the folder is not writable / the disk is
+            full, or (``overwrite`` False) the report exists (an earlier report is then
+            unchanged).
     """
     path = Path(path)
     if path.suffix.lower() not in (".html", ".htm"):
@@ -374,6 +380,7 @@ def write_report(data: ReportData, path: str | os.PathLike[str], deidentified: b
     files = {f"{path.stem}-{name}.png": png_bytes(img)
              for name, img in images.items()} if pngs else {}
     files[path.name] = text.encode("utf-8")
-    write_file_set(path.parent, files,
-                   remove=[f"{path.stem}-{name}.png" for name in _PNG_PARTS])
+    write_file_set(path.parent, files, overwrite=overwrite,
+                   remove=[f"{path.stem}-{name}.png" for name in PNG_PARTS]
+                   if overwrite else [])
     return path

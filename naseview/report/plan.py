@@ -53,7 +53,8 @@ def plan_figures(amounts: Mapping[str, float]) -> list[tuple[str, str]]:
     for n in names:
         info = _catalogue.get(n)
         title = str(getattr(info, "title", "") or n.replace("_", " "))
-        out.append((title, _amount(planned[n], str(getattr(info, "unit", "")))))
+        each = " per side" if getattr(info, "per_side", False) else ""
+        out.append((title, _amount(planned[n], str(getattr(info, "unit", ""))) + each))
     return out
 
 

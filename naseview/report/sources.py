@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +21,7 @@ from naseview.fileio import current_set_file
 from naseview.measurements import Estimate, estimated_measurements
 from naseview.reconstruction import RECONSTRUCTION_FILE, Reconstruction, output_case_dir
 from naseview.report.data import ReportData, surgeon_notes
+from naseview.report.page import PNG_PARTS as REPORT_PNG_PARTS
 from naseview.report.page import write_report
 from naseview.report.pdf import write_report_pdf
 from naseview.texture.bake import FaceTexture, skin_texture
@@ -155,10 +157,26 @@ def _credit_of(rec: Reconstruction | None) -> str:
     return str(mesh.get("credit", "")) if isinstance(mesh, dict) else ""
 
 
+def free_report_name(folder: Path, stem: str) -> Path:
+    """``folder/<stem>.html``, else ``<stem>-2.html``, ``-3``... : the first name with no
+    HTML or PNG of an earlier report (``naseview report`` never overwrites one)."""
+    for k in range(1, 1000):
+        name = stem if k == 1 else f"{stem}-{k}"
+        parts = [f"{name}.html", f"{name}.pdf",
+                 *(f"{name}-{p}.png" for p in REPORT_PNG_PARTS)]
+        if not any(os.path.lexists(folder / p) for p in parts):
+            return folder / f"{name}.html"
+    raise NaseviewError(f"{folder}: 999 reports named {stem}-N.html already; give a name "
+                        "with -o")
+
+
 def report_command(args: argparse.Namespace) -> int:
     """``naseview report PATH [-o OUT.html] [--deidentified] [--case CASE_DIR]
     [--surgeon S] [--clinic C] [--patient-name P] [--pdf]``: the HTML (+ PNGs) and, with
-    ``--pdf``, the PDF beside it (same name, ``.pdf``)."""
+    ``--pdf``, the PDF beside it (same name, ``.pdf``). An existing report is never
+    overwritten: the default name is the first free ``report[-N].html``
+    (:func:`free_report_name`), an ``-o`` name that exists is refused. A report with
+    photos wanted but none found warns in one line on stderr."""
     path = Path(args.path)
     deid = bool(args.deidentified)
     if path.is_file():
@@ -171,10 +189,15 @@ def report_command(args: argparse.Namespace) -> int:
     data.surgeon = str(getattr(args, "surgeon", None) or "")
     data.clinic = str(getattr(args, "clinic", None) or "")
     data.patient_name = str(getattr(args, "patient_name", None) or "")
-    out = Path(args.output) if getattr(args, "output", None) else (
-        (path.parent if path.is_file() else path)
-        / f"report{'-deidentified' if deid else ''}.html")
-    written = write_report(data, out, deidentified=deid)
+    if not deid and not data.photos:
+        print(f"naseview report: warning: {path}: no photos found (the "
+              f"{'session' if path.is_file() else 'output'} names no readable case "
+              "folder), so the report has none; pass --case CASE_DIR to include them",
+              file=sys.stderr)
+    out = Path(args.output) if getattr(args, "output", None) else free_report_name(
+        path.parent if path.is_file() else path,
+        f"report{'-deidentified' if deid else ''}")
+    written = write_report(data, out, deidentified=deid, overwrite=False)
     print(written)
     if getattr(args, "pdf", False):
         print(write_report_pdf(written, written.with_suffix(".pdf")))

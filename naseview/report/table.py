@@ -3,8 +3,9 @@ landmark distances for the technical appendix.
 
 Values are :func:`naseview.measurements.clinical_measurements` of the reconstruction
 (before) and of the simulation (after). Each clinical row carries the measurement's
-title, a plain sentence for the patient and its usual adult range as text (by sex when
-:data:`naseview.measurements.MEASUREMENT_INFO` gives ranges by sex); no row is flagged
+title, a plain sentence for the patient and its usual adult range as text (``normal`` of
+:data:`naseview.measurements.MEASUREMENT_INFO`, as in the app; by sex only when no overall
+range is given); no row is flagged
 against its range. A value the reconstruction was scaled to (a calliper distance typed
 at intake, ``case.json`` ``scale_mm``) is marked ``calliper``: it is an input, not a
 finding. A value whose uncertainty from its landmarks exceeds
@@ -24,7 +25,7 @@ Example
 >>> from types import SimpleNamespace
 >>> usual_range_text(SimpleNamespace(unit="deg", normal=(115.0, 135.0)))
 'usual range 115–135°'
->>> usual_range_text(SimpleNamespace(unit="deg", normal_female=(95.0, 110.0),
+>>> usual_range_text(SimpleNamespace(unit="deg", normal=None, normal_female=(95.0, 110.0),
 ...                                  normal_male=(90.0, 95.0)))
 'women 95–110°, men 90–95°'
 """
@@ -128,16 +129,17 @@ def _range(value: Any) -> tuple[float, float] | None:
 
 def usual_range_text(info: Any) -> str:
     """The usual adult range of a :class:`~naseview.measurements.MeasurementInfo` as the
-    patient reads it: ``"women 95–110°, men 90–95°"`` when it has ranges by sex
-    (``normal_female`` / ``normal_male``), else ``"usual range 115–135°"`` (``normal``),
-    else ``""``."""
+    patient reads it: ``"usual range 115–135°"`` (``normal``, the range the app's table
+    and the exports show: one source for all three), else ``"women 95–110°, men
+    90–95°"`` when it has only ranges by sex (``normal_female`` / ``normal_male``), else
+    ``""``."""
     unit = str(getattr(info, "unit", ""))
+    normal = _range(getattr(info, "normal", None))
+    if normal:
+        return f"usual range {format_range(normal, unit)}"
     by_sex = [(who, _range(getattr(info, attr, None)))
               for who, attr in (("women", "normal_female"), ("men", "normal_male"))]
-    if any(r for _, r in by_sex):
-        return ", ".join(f"{who} {format_range(r, unit)}" for who, r in by_sex if r)
-    normal = _range(getattr(info, "normal", None))
-    return f"usual range {format_range(normal, unit)}" if normal else ""
+    return ", ".join(f"{who} {format_range(r, unit)}" for who, r in by_sex if r)
 
 
 def _title(name: str, info: Any) -> str:
@@ -220,14 +222,18 @@ def measurement_rows(before: Mapping[str, float], after: Mapping[str, float] | N
     return rows
 
 
+def _digits(unit: str, mag: float) -> int:
+    """Decimals a value is shown with: 2 for a ratio below 5, else 1."""
+    return 2 if unit == "" and abs(mag) < 5 else 1
+
+
 def format_value(v: float | None, unit: str, signed: bool = False,
                  ref: float | None = None) -> str:
     """A value with its unit; ratios below 5 (by ``ref``, default the value) get 2
     decimals, everything else 1."""
     if v is None:
         return "—"
-    mag = abs(v if ref is None else ref)
-    digits = 2 if unit == "" and mag < 5 else 1
+    digits = _digits(unit, v if ref is None else ref)
     s = f"{v:+.{digits}f}" if signed else f"{v:.{digits}f}"
     return s + {"mm": " mm", "deg": "°"}.get(unit, "")
 
@@ -240,3 +246,15 @@ def format_range(normal: tuple[float, float] | None, unit: str) -> str:
     if unit == "" and max(abs(normal[0]), abs(normal[1])) < 5:
         return f"{normal[0]:.2f}–{normal[1]:.2f}"
     return f"{normal[0]:g}–{normal[1]:g}{u}"
+
+
+def format_change(before: float | None, after: float | None, unit: str) -> str:
+    """The change as the reader checks it against the shown values: after minus before,
+    each rounded as :func:`format_value` shows it (``-1.36 -> -1.33`` shows ``-1.4``,
+    ``-1.3`` and ``+0.1``, never ``+0.0``); ``"—"`` without both."""
+    if before is None or after is None:
+        return "—"
+    d_b, d_a = _digits(unit, before), _digits(unit, after)
+    d = max(d_b, d_a)
+    change = round(round(after, d_a) - round(before, d_b), d) + 0.0
+    return format_value(change, unit, signed=True, ref=before if d == d_b else after)

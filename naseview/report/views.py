@@ -3,8 +3,8 @@
 Each view is a portrait-lens camera 600 mm from the nose
 (:func:`naseview.camera.standard_camera`), rendered with
 :func:`naseview.render.render_mesh`; the face's eye and mouth holes are closed first
-(:func:`naseview.geometry.closing.cap_holes`) and the "after" images
-carry the "before" silhouette as a blue outline.
+(:func:`naseview.geometry.closing.cap_holes`) and the "after" profile carries the
+"before" silhouette as a blue outline (:data:`OUTLINE_VIEWS`).
 
 The de-identified ("nose only") renders show the whole face in neutral grey, faded to
 white outside a soft vignette around the nose (:func:`nose_vignette`): a clean, smooth
@@ -39,6 +39,10 @@ NOSE_ONLY_FIELD = 1.2
 """Field of the de-identified views, in nose extents (the full views: 1.9)."""
 OUTLINE_BGR = (200, 110, 30)
 """Blue outline of the silhouette before the simulation, drawn on the "after" renders."""
+OUTLINE_VIEWS = ("left",)
+"""The views whose "before" silhouette outlines the nose: the profile. From the front and
+from below the face's silhouette is the head's edge (the top of the head in the base
+view), not the nose, so no line is drawn there (issue 27)."""
 
 
 def _draw_outline(img: np.ndarray, silhouette: np.ndarray) -> np.ndarray:

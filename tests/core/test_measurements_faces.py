@@ -17,7 +17,8 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
     "dorsal_hump_depth": (0, 6), "radix_height": (0, 15), "radix_level": (-8, 8),
     "nasolabial_angle": (80, 135), "tip_rotation": (85, 125), "tip_projection": (15, 40),
     "goode_ratio": (0.4, 0.75), "crumley_projection": (15, 40), "crumley_ratio": (0.4, 0.75),
-    "crumley_height_ratio": (0.6, 1.0), "columellar_show": (0, 10),
+    "crumley_height_ratio": (0.6, 1.0),
+    "columellar_show": (-2, 10),            # at mid-columella; < 0: rim below the columella
     "nasal_width": (25, 45), "alar_base": (25, 45), "nasal_index": (50, 100),
     "intercanthal_width": (25, 45), "alar_intercanthal_ratio": (0.7, 1.5),
     "dorsal_deviation": (-3, 3), "tip_deviation": (-3, 3), "nostril_symmetry": (0.8, 1.0),

@@ -174,6 +174,24 @@ def test_columellar_show_from_the_nostril_outlines() -> None:
     assert m["columellar_show"] == pytest.approx(2.5)
 
 
+def test_columellar_show_is_read_at_mid_columella() -> None:
+    # the alar rim stands 2 mm above the columella over its front half but rises to 6 mm
+    # at sn (the alar base above the columella's foot): the show is the 2 mm (mid), not
+    # the 6 mm at the foot (issue 27: a columella set-back did not change the figure)
+    z = np.linspace(8.5, 18, 20)                      # sn at z 8, c at z 20
+    line = -55.0 + (z - 8.0) * 5.0 / 12.0
+    rise = 2.0 + np.clip(14.0 - z, 0.0, None)
+
+    def sill(x: float) -> np.ndarray:
+        rim = np.stack([np.full_like(z, 1.3 * x), line + rise, z], axis=1)
+        medial = np.stack([np.full_like(z, 0.7 * x), line, z], axis=1)[::-1]
+        return np.concatenate([rim, medial])
+
+    m = clinical_measurements(_landmarks(), curves={"sill_l": sill(6.0),
+                                                    "sill_r": sill(-6.0)})
+    assert m["columellar_show"] == pytest.approx(2.0, abs=0.05)
+
+
 def test_measurements_do_not_depend_on_the_head_pose() -> None:
     """A yaw of the whole face (landmarks and mesh) changes nothing: the facial
     midline plane and the projections turn with the face."""

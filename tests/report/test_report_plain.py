@@ -77,10 +77,13 @@ def test_the_patient_pages_speak_plainly_without_flags_or_alarm_colours(data):
     assert "ac_l–ac_r" in _visible(appendix)                    # ids only for the surgeon
 
 
-def test_usual_ranges_are_given_by_sex_when_known():
+def test_usual_ranges_are_the_apps_and_by_sex_only_without_one():
     both = SimpleNamespace(unit="deg", normal=(90.0, 120.0), normal_female=(95.0, 110.0),
                            normal_male=(90.0, 95.0))
-    assert usual_range_text(both) == "women 95–110°, men 90–95°"
+    assert usual_range_text(both) == "usual range 90–120°"     # the app's range (issue 27)
+    by_sex = SimpleNamespace(unit="deg", normal=None, normal_female=(95.0, 110.0),
+                             normal_male=(90.0, 95.0))
+    assert usual_range_text(by_sex) == "women 95–110°, men 90–95°"
     assert usual_range_text(SimpleNamespace(unit="deg", normal=(115.0, 135.0))) == \
         "usual range 115–135°"
     assert usual_range_text(SimpleNamespace(unit="", normal=(0.55, 0.6))) == \

@@ -34,6 +34,8 @@ class ManoeuvreInfo:
         step: GUI step (0.1 mm / 0.5 deg).
         definition: one paragraph for the surgeon: what moves, which way, how it fades.
         plain: patient words, a format string with ``{amount}``.
+        per_side: the amount is per side (each side moves by it; a width falls by
+            twice it): the control says so (:attr:`control_label`).
     """
 
     name: str
@@ -44,6 +46,18 @@ class ManoeuvreInfo:
     step: float
     definition: str
     plain: str
+    per_side: bool = False
+
+    @property
+    def unit_label(self) -> str:
+        """The unit as a control shows it: ``"°"``, ``"mm"``, ``"mm per side"``."""
+        u = "°" if self.unit == "deg" else self.unit
+        return f"{u} per side" if self.per_side else u
+
+    @property
+    def control_label(self) -> str:
+        """The control's label: ``"Alar base narrowing (mm per side)"``."""
+        return f"{self.title} ({self.unit_label})"
 
 
 _ALL = (
@@ -51,9 +65,13 @@ _ALL = (
         "hump_reduction", "Dorsal hump reduction", "mm", 0.0, 5.0, 0.1,
         "Lowers the dorsum between the radix (n) and the tip (prn) along the posterior "
         "normal of the n-prn line, in proportion to the profile's height above that line, "
-        "so the dorsal hump depth falls by the amount (until the dorsum is straight); n "
-        "and prn stay; fades to zero on the sidewalls about a fifth of the alar width "
-        "either side of the midline.",
+        "so the dorsal hump depth falls by the amount; an amount past the measured hump is "
+        "applied only up to it (+0.25 mm), where the dorsum is straight (more would crease "
+        "it into a saddle), and the plan says so; a hump measured in the supratip (its "
+        "top within 15 % of the nasal length above the tip) is the lobule's convexity: "
+        "lowering it sharpens the tip, and the plan says that too; n and prn stay; fades "
+        "to zero on the "
+        "sidewalls about a fifth of the alar width either side of the midline.",
         "Lower the bump on the bridge of the nose by {amount} mm"),
     ManoeuvreInfo(
         "radix_augmentation", "Radix augmentation", "mm", -2.0, 4.0, 0.1,
@@ -70,33 +88,58 @@ _ALL = (
     ManoeuvreInfo(
         "tip_rotation", "Tip rotation", "deg", -10.0, 15.0, 0.5,
         "Rotates the tip lobule and columella about the transverse axis through the alar "
-        "crease midpoint (mean of ac_l, ac_r); positive = cephalic (tip up); prn turns by "
-        "the angle; fades over the supratip, the alae and into the upper lip. The "
-        "columella, held at the lip, tilts more: the measured tip rotation (columellar-"
-        "facial angle) changes by about 1.4 x the angle.",
+        "crease midpoint (mean of ac_l, ac_r); positive = cephalic (tip up); the measured "
+        "tip rotation (columellar-facial angle) changes by the angle: the columella, held "
+        "at the lip, tilts more or less than the lobule turns, so the lobule's turn is "
+        "scaled on each face (prn turns by the angle divided by that face's gain, 0.7-2); "
+        "fades over the supratip, the alae and into the upper lip.",
         "Turn the tip of the nose upwards by {amount} degrees"),
     ManoeuvreInfo(
         "tip_narrowing", "Tip narrowing", "mm", 0.0, 4.0, 0.1,
         "Moves the two halves of the tip lobule towards the midline, smoothly across it, "
-        "so the dome distance md_l-md_r falls by the amount (half per side); fades towards "
-        "the alae, the supratip and the columella base.",
+        "so the tip width (the dome distance md_l-md_r) falls by the amount (half per "
+        "side); fades towards the alae, the supratip and the columella base.",
         "Make the tip of the nose narrower by {amount} mm"),
     ManoeuvreInfo(
         "alar_base_narrowing", "Alar base narrowing", "mm", 0.0, 4.0, 0.1,
         "Moves each ala together with its alar crease (ac, al, the alar groove and the "
-        "nostril sill) medially by the amount per side; fades into the cheek, the upper "
-        "lip and the nasal sidewall over a band wide enough that nothing folds.",
-        "Make the base of the nostrils narrower by {amount} mm on each side"),
+        "nostril sill) medially by the amount on each side, so the alar base width "
+        "(ac_l-ac_r) and the nasal width (al_l-al_r) fall by twice the amount; fades into "
+        "the cheek, the upper lip and the nasal sidewall over a band wide enough that "
+        "nothing folds.",
+        "Make the base of the nostrils narrower by {amount} mm on each side",
+        per_side=True),
     ManoeuvreInfo(
         "columella_setback", "Columella setback", "mm", 0.0, 4.0, 0.1,
         "Moves the hanging columella (between c and sn) up into the nostrils, "
-        "perpendicular to the c-sn line (cephalic and posterior); zero at the tip lobule "
-        "(c) and at the lip (sn).",
+        "perpendicular to the c-sn line (cephalic and posterior), so the columellar show "
+        "(read at mid-columella) falls by the amount; zero at the tip lobule (c) and at "
+        "the lip (sn).",
         "Raise the strip of skin between the nostrils by {amount} mm"),
 )
 
 MANOEUVRES: dict[str, ManoeuvreInfo] = {m.name: m for m in _ALL}
 """Every manoeuvre by name, in display order."""
+
+
+MEASURES: dict[str, tuple[str, float]] = {
+    "hump_reduction": ("dorsal_hump_depth", -1.0),
+    "radix_augmentation": ("radix_height", 1.0),
+    "tip_projection": ("tip_projection", 1.0),
+    "tip_rotation": ("tip_rotation", 1.0),
+    "tip_narrowing": ("tip_width", -1.0),
+    "alar_base_narrowing": ("alar_base", -2.0),
+    "columella_setback": ("columellar_show", -1.0),
+}
+"""Manoeuvre -> (the measurement it names, its change per unit amount): a manoeuvre of
+amount ``x`` changes that measurement by ``x`` times the factor (within 10 %,
+``benchmarks/bench_plan.py``)."""
+
+
+def expected_change(name: str, amount: float) -> float:
+    """The change of :data:`MEASURES` ``[name]``'s measurement a manoeuvre of ``amount``
+    is meant to make (mm, degrees)."""
+    return MEASURES[name][1] * float(amount)
 
 
 def _fmt(x: float) -> str:

@@ -8,6 +8,12 @@ weight, pivot and axis. Applying amounts is then a weighted sum over each field'
     D(amounts) = sum_m amount_m * U_m                     (translations: linear)
                + w * (R_theta (p - c) - (p - c))          (tip rotation by theta degrees)
 
+The typed amounts are first mapped to the applied ones (:meth:`ManoeuvrePlan.applied`):
+the hump reduction is capped where the dorsum is straight (the measured hump plus
+:data:`HUMP_MARGIN_MM`), and the tip rotation is divided by the face's gain (the measured
+tip rotation's change per degree of the field, measured once on the rest shape), so the
+measurement each manoeuvre names (:data:`.info.MEASURES`) changes by the typed amount.
+
 Every field is defined on the rest positions, so the fields add: ``D`` is exactly
 commutative, undoable (amounts back to 0 give exactly 0) and the translations are linear
 in their amounts. A landmark moves with the surface under it: it is attached to its
@@ -32,7 +38,11 @@ import numpy as np
 
 from naseview.editing.manoeuvres.alar_base import alar_base_field
 from naseview.editing.manoeuvres.columella import columella_setback_field
-from naseview.editing.manoeuvres.dorsum import hump_reduction_field, radix_augmentation_field
+from naseview.editing.manoeuvres.dorsum import (
+    dorsal_profile,
+    hump_reduction_field,
+    radix_augmentation_field,
+)
 from naseview.editing.manoeuvres.frame import NasalFrame, nasal_frame
 from naseview.editing.manoeuvres.info import MANOEUVRES, check_amounts
 from naseview.editing.manoeuvres.tip import (
@@ -42,6 +52,7 @@ from naseview.editing.manoeuvres.tip import (
     tip_rotation_pivot,
     tip_rotation_weight,
 )
+from naseview.measurements import clinical_measurements
 
 NEEDS: dict[str, tuple[str, ...]] = {
     "hump_reduction": ("n", "prn"),
@@ -57,6 +68,24 @@ NEEDS: dict[str, tuple[str, ...]] = {
 NOSE_ONLY: frozenset[str] = frozenset({"hump_reduction", "tip_projection", "tip_narrowing",
                                       "columella_setback"})
 """Manoeuvres that move the nose region's vertices only."""
+
+HUMP_MARGIN_MM = 0.25
+"""A hump reduction is applied up to the measured hump plus this (the field leaves a
+little of the measured hump in the supratip at exactly the hump depth)."""
+
+SUPRATIP = 0.15
+"""A measured hump whose highest point lies closer than this fraction of n-prn above prn
+(about 7 mm) is the supratip (the lobule's convexity), not a dorsal hump: lowering it
+there sharpens the tip (the dihedral angles at prn grow by 10-15 deg per mm on the demo
+and james), and the plan says so."""
+
+ROTATION_PROBE_DEG = 10.0
+"""Angle (degrees) of the raw rotation field at which the tip rotation's gain is measured."""
+
+ROTATION_GAIN = (0.7, 2.0)
+"""Bounds of the measured tip rotation's change per degree of the raw field (a
+columella held at the lip tilts more than the lobule turns: about 1.4 on the generic
+face, 0.9 on the ICT base)."""
 
 SUPPORT_EPS = 1e-12
 """Weights at or below this are outside a field's support."""
@@ -124,6 +153,58 @@ class ManoeuvrePlan:
             support.append(idx)
         self.region_ids: np.ndarray = np.unique(np.concatenate(support)).astype(np.int64)
         self._attach_landmarks()
+        self.hump_depth: float | None = None
+        self.hump_above_tip: float | None = None
+        self.supratip_hump = False
+        self.rotation_gain = 1.0
+        self._calibrate(landmarks, mid)
+
+    def _calibrate(self, landmarks: Mapping[str, np.ndarray],
+                   mid: np.ndarray | None = None) -> None:
+        """:attr:`hump_depth` (the rest mesh's measured dorsal hump, mm),
+        :attr:`hump_above_tip` (how far the dorsal profile's highest point lies above
+        prn along n-prn, mm), :attr:`supratip_hump` (that is closer than
+        :data:`SUPRATIP` of n-prn: the hump measured is the supratip) and
+        :attr:`rotation_gain` (the measured tip rotation's change per degree of the raw
+        rotation field, the secant over :data:`ROTATION_PROBE_DEG`, clamped to
+        :data:`ROTATION_GAIN`; 1 when it cannot be measured)."""
+        lms = {k: np.asarray(landmarks[k], np.float64) for k in self._lm_ids}
+        m0 = clinical_measurements(lms, None, self.V, self.F)
+        h = m0.get("dorsal_hump_depth")
+        self.hump_depth = None if h is None else max(0.0, float(h))
+        if self.frame is not None and "hump_reduction" in self.available:
+            H, h_max = dorsal_profile(self.V, self.F, self.frame, mid)
+            grid = np.linspace(0.0, 1.0, 201)
+            if h_max > 0.0:
+                peak = float(grid[int(np.argmax(H(grid)))])
+                self.hump_above_tip = (1.0 - peak) * self.frame.length
+        self.supratip_hump = self.hump_above_tip is not None and self.frame is not None \
+            and self.hump_above_tip < SUPRATIP * self.frame.length
+        if self._rotation is None or "tip_rotation" not in m0:
+            return
+        amounts = {"tip_rotation": ROTATION_PROBE_DEG}
+        D = self._raw_displacement(amounts)
+        off = self._landmark_offsets(D)
+        m1 = clinical_measurements({k: lms[k] + off[k] for k in lms}, None, self.V + D,
+                                   self.F)
+        if "tip_rotation" in m1:
+            g = (m1["tip_rotation"] - m0["tip_rotation"]) / ROTATION_PROBE_DEG
+            self.rotation_gain = float(np.clip(g, *ROTATION_GAIN))
+
+    def applied(self, amounts: Mapping[str, float]) -> dict[str, float]:
+        """The amounts the fields are applied with for the typed ``amounts`` (checked,
+        non-zero, :data:`MANOEUVRES` order): the hump reduction capped at
+        :attr:`hump_depth` + :data:`HUMP_MARGIN_MM` (the dorsum ends straight; more
+        would crease it into a saddle) and the tip rotation divided by
+        :attr:`rotation_gain` (so that the measured tip rotation changes by the typed
+        angle)."""
+        out = dict(_ordered(amounts))
+        if "hump_reduction" in out and self.hump_depth is not None:
+            out["hump_reduction"] = min(out["hump_reduction"],
+                                        self.hump_depth + HUMP_MARGIN_MM)
+        if "tip_rotation" in out:
+            out["tip_rotation"] = out["tip_rotation"] / self.rotation_gain
+        return {k: v for k, v in out.items() if v != 0.0}
 
     def _attach_landmarks(self) -> None:
         """Each landmark's closest triangle corners (K, 3) and barycentric weights (K, 3)."""
@@ -150,8 +231,12 @@ class ManoeuvrePlan:
         Raises:
             NaseviewError: an unknown manoeuvre or an amount outside its range.
         """
+        return self._raw_displacement(self.applied(amounts))
+
+    def _raw_displacement(self, applied: Mapping[str, float]) -> np.ndarray:
+        """(N, 3) displacement of the fields at the ``applied`` amounts (no cap, no gain)."""
         D = np.zeros_like(self.V)
-        for m, x in _ordered(amounts):
+        for m, x in applied.items():
             if m in self._fields:
                 idx, U = self._fields[m]
                 D[idx] += x * U
@@ -168,7 +253,10 @@ class ManoeuvrePlan:
         Raises:
             NaseviewError: an unknown manoeuvre or an amount outside its range.
         """
-        D = self.displacement(amounts)
+        return self._landmark_offsets(self.displacement(amounts))
+
+    def _landmark_offsets(self, D: np.ndarray) -> dict[str, np.ndarray]:
+        """Landmark id -> (3,) displacement for the vertex displacement D (N, 3)."""
         off = np.einsum("kc,kcd->kd", self._lm_bary, D[self._lm_corners])
         return {k: off[i].copy() for i, k in enumerate(self._lm_ids)}
 
