@@ -314,13 +314,16 @@ def _damaged(name: str | os.PathLike[str], kind: str, why: str) -> NaseviewError
                          "the photo again from the camera")
 
 
-def image_header(data: bytes, name: str | os.PathLike[str]) -> tuple[str, int, int]:
+def image_header(data: bytes, name: str | os.PathLike[str],
+                 whole: bool = True) -> tuple[str, int, int]:
     """``(kind, width, height)`` declared by a PNG or JPEG header, without decoding.
 
     The file must also be complete (a JPEG's end-of-image marker after its first scan, a
     PNG's ``IEND`` chunk) and large enough for the pixels it declares
     (:data:`MAX_PIXELS_PER_BYTE`), so a header that lies is refused here, not
-    "decoded" as a grey picture.
+    "decoded" as a grey picture. ``whole=False``: ``data`` is only the file's first bytes
+    (a header read of a photo that was checked whole when it was written): those two
+    checks are left out.
 
     Raises:
         NaseviewError: not a PNG or JPEG, a damaged header, a truncated file, fewer bytes
@@ -357,6 +360,8 @@ def image_header(data: bytes, name: str | os.PathLike[str]) -> tuple[str, int, i
             f"{name}: {width}x{height} px ({_megapixels(width * height)} megapixels) is over "
             f"the limit of {_megapixels(MAX_IMAGE_PIXELS)} megapixels; downscale the photo "
             "(12 megapixels is plenty)")
+    if not whole:
+        return kind, int(width), int(height)
     if incomplete is not None:
         raise _damaged(name, kind.upper(), incomplete)
     if len(data) < needed // MAX_PIXELS_PER_BYTE:

@@ -502,10 +502,11 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
 def check_not_foreign(out_dir: str | os.PathLike[str],
                       case_dir: str | os.PathLike[str]) -> None:
     """Before a run: ``out_dir`` is not the case folder nor another case's (one with a
-    ``case.json``: the result would lie among the photos), and holds no mesh file a run writes or removes (``face.ply``, ``nose.stl``,
-    ...) unless it is a previous result (it has ``reconstruction.json``, or the commit
-    folder of a run killed while moving its set in, which this run finishes): a user's
-    own files are never overwritten or deleted.
+    ``case.json``: the result would lie among the photos), and holds no mesh file a run
+    writes or removes (``face.ply``, ``nose.stl``, ...) unless it is a previous result
+    (it has ``reconstruction.json``, or the commit folder of a run killed while moving
+    its set in, which this run finishes): a user's own files are never overwritten or
+    deleted.
 
     Raises:
         NaseviewError: naming the folder, the files and the fix.

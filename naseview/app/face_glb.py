@@ -178,6 +178,17 @@ def _crop_chart(uv: np.ndarray, image: np.ndarray, margin_px: int = 4
     return out, crop
 
 
+def _median_rgb(image_rgb: np.ndarray) -> tuple[int, int, int]:
+    """The median colour (sRGB 0-255) of an (h, w, 3) RGB image's non-black pixels (the
+    texture's skin; black is where no photo saw it)."""
+    px = np.asarray(image_rgb).reshape(-1, 3)
+    px = px[px.max(axis=1) > 16]
+    if not len(px):
+        return SKIN_RGB
+    r, g, b = (int(v) for v in np.median(px, axis=0))
+    return (r, g, b)
+
+
 class FaceGlb:
     """The rest and nose GLBs of one face (see the module doc).
 
@@ -228,6 +239,9 @@ class FaceGlb:
                                       interpolation=cv2.INTER_AREA)
                 jpeg = _jpeg(crop)
             parts.append(_part(ids, faces, uv, jpeg, color))
+            if ids is part_ids:
+                self.nose_rgb: tuple[int, int, int] = (
+                    _median_rgb(crop) if texture is not None and uv is not None else color)
         self._rest, self._nose = parts
 
     @property
@@ -256,6 +270,11 @@ class FaceGlb:
             N_part = vertex_normals(P, self._part_F)
             N[self._part_moving] = N_part[self._part_moving]
         return P, N
+
+    @property
+    def nose_faces(self) -> np.ndarray:
+        """(t, 3) the nose part's triangles, indices into :meth:`nose_geometry`'s rows."""
+        return self._part_F
 
     def nose_glb(self, V: ArrayLike) -> bytes:
         """GLB of the nose part for the face ``V`` (n, 3) mm (only positions and normals

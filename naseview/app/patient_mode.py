@@ -37,6 +37,7 @@ from naseview.camera import DISTANCE_MM
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
+from naseview.intake.annotation_file import safe_case_id
 from naseview.intake.patients import PatientFolders
 from naseview.reconstruction import calliper_distances
 from naseview.report import DISCLAIMER, ReportData, measurement_rows, write_report

@@ -63,10 +63,21 @@ CONSTRUCTION = "/construction"
 fixed landmarks): hidden by default, shown by the panel's "Show construction"."""
 
 
+UNDERLAY_INSET_MM = 0.05
+"""How far below the textured nose its plain underlay lies (mm, along the normals)."""
+
+
 class NoseNode:
     """The live nose GLB (:class:`~naseview.app.face_glb.FaceGlb`) as a node whose
     ``vertices`` (k, 3) mm (the face's nose-part vertices, ``FaceScene.nose_ids``) can be
-    assigned: each assignment re-packs positions and normals and replaces the GLB."""
+    assigned: each assignment re-packs positions and normals and replaces the GLB.
+
+    A browser takes a while to decode a replaced GLB (its texture JPEG; 2 s and more with
+    software WebGL) and draws nothing there meanwhile: the nose was a hole after every drag
+    (issue 27). Under the GLB lies a plain mesh of the same nose in the texture's median
+    skin colour, :data:`UNDERLAY_INSET_MM` inside it, updated first on every assignment
+    (only its vertices travel): hidden by the textured nose once that is drawn, it shows
+    the new shape while the GLB loads."""
 
     def __init__(self, scene: viser.SceneApi, name: str, parts: FaceGlb,
                  base_V: np.ndarray, ids: np.ndarray) -> None:
@@ -77,7 +88,18 @@ class NoseNode:
         self._ids = ids
         self._vertices = self._base[ids].copy()
         self._visible = True
+        P, N = self._geometry()
+        self.underlay = scene.add_mesh_simple(
+            f"{name}_underlay", (P - UNDERLAY_INSET_MM * N).astype(np.float32),
+            parts.nose_faces, color=parts.nose_rgb, flat_shading=False, cast_shadow=False,
+            receive_shadow=False)
         self.handle: viser.GlbHandle = self._send()
+
+    def _geometry(self) -> tuple[np.ndarray, np.ndarray]:
+        """The nose part's positions and normals for the current vertices."""
+        V = self._base.copy()
+        V[self._ids] = self._vertices
+        return self._parts.nose_geometry(V)
 
     def _send(self) -> viser.GlbHandle:
         V = self._base.copy()
@@ -97,6 +119,8 @@ class NoseNode:
         if V.shape == self._vertices.shape and np.array_equal(V, self._vertices):
             return
         self._vertices = V.copy()
+        P, N = self._geometry()
+        self.underlay.vertices = (P - UNDERLAY_INSET_MM * N).astype(np.float32)
         self.handle = self._send()
 
     @property
@@ -107,9 +131,11 @@ class NoseNode:
     def visible(self, on: bool) -> None:
         self._visible = bool(on)
         self.handle.visible = self._visible
+        self.underlay.visible = self._visible
 
     def remove(self) -> None:
         self.handle.remove()
+        self.underlay.remove()
 
 
 def split_region(F: np.ndarray, region: np.ndarray, n_vertices: int

@@ -190,7 +190,7 @@ def _photo(path: Path, folder: Path, view: str, value: Any) -> PhotoInfo:
             head = f.read(_HEADER_BYTES)
     except OSError as e:
         raise _err(path, f"{key}.file", f"cannot read {where} ({one_line(e)})") from None
-    _, w_file, h_file = image_header(head, where)
+    _, w_file, h_file = image_header(head, where, whole=len(head) < _HEADER_BYTES)
     if (w_file, h_file) != (w, h):
         raise _err(path, f"{key}.width", f"the photo {where} is {w_file}x{h_file} px, not "
                                          f"{w}x{h}; upload the {view} photo again")

@@ -175,35 +175,6 @@ class PatientFolders:
         """``WORK/<id>/report``: the consultation report."""
         return self.patient_dir(case_id) / "report"
 
-    def unkept_report_dir(self, case_id: str) -> Path:
-        """Where the report of a case that is not kept goes (the demo, a session file or a
-        reconstruction folder opened directly): ``WORK/<id>/report`` only when
-        ``WORK/<id>`` is not a patient (absent, or holding nothing but reports), else
-        ``WORK/<id>-2/report``, ``-3``...: such a report never replaces a patient's.
-
-        Raises:
-            NaseviewError: the work folder cannot be read.
-        """
-        base = safe_case_id(case_id)[:56] or "case"
-        base = base if is_patient_id(base) else "case"
-        for k in range(1, 1000):
-            pid = base if k == 1 else f"{base}-{k}"
-            top = self.patient_dir(pid)
-            try:
-                names = {e.name for e in os.scandir(top) if not e.name.startswith(".")}
-            except (FileNotFoundError, NotADirectoryError):
-                if not os.path.lexists(top):
-                    return self.report_dir(pid)
-                continue
-            except OSError as e:
-                raise NaseviewError(f"{top}: cannot read ({one_line(e)}); check the work "
-                                    "folder") from None
-            if names <= {"report"} and not any(a.case_id.casefold() == pid.casefold()
-                                               for a in self.annotations()):
-                return self.report_dir(pid)
-        raise NaseviewError(f"{self.root}: too many folders named {base!r}; move old "
-                            "reports out of the work folder")
-
     def trash_dir(self, case_id: str) -> Path:
         """``WORK/<id>/trash``: deleted simulations (move one back to restore it)."""
         return self.patient_dir(case_id) / TRASH_FOLDER

@@ -1,14 +1,10 @@
-"""Issue 26, item 3: the report of a case that is not kept (a session or baseline opened
-directly) never overwrites another patient's report: it goes to ``WORK/<case id>`` only
-when that folder is not a patient's."""
+"""Issue 26, item 3 (and issue 27, item 5): the report of a case that is not kept (a
+session or baseline opened directly, the demo) never overwrites another patient's report
+and makes no patient folder: it goes to ``WORK/.reports/<case id>/``."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from helpers import open_tab
-
-from naseview.intake.patients import PatientFolders
 
 
 def test_an_unkept_report_never_replaces_a_patients_report(ict_app):
@@ -22,20 +18,8 @@ def test_an_unkept_report_never_replaces_a_patients_report(ict_app):
     (patient / "report").mkdir()
     theirs = patient / "report" / "report.html"
     theirs.write_text("the other patient's report")
+    before = sorted(p.name for p in app.work_dir.iterdir())
     path = screen.patient.write_report(deidentified=False)
     assert theirs.read_text() == "the other patient's report"
-    assert path.parent == app.work_dir / "ict-mean-2" / "report" and path.is_file()
-    again = screen.patient.write_report(deidentified=False)    # the same folder again
-    assert again == path
-
-
-def test_unkept_report_folders(tmp_path: Path):
-    work = PatientFolders(tmp_path / "work")
-    assert work.unkept_report_dir("P002") == work.report_dir("P002")       # free
-    work.report_dir("P002").mkdir(parents=True)                            # only reports
-    assert work.unkept_report_dir("P002") == work.report_dir("P002")
-    (work.patient_dir("P002") / "simulations").mkdir()                     # a patient
-    assert work.unkept_report_dir("P002") == work.report_dir("P002-2")
-    (tmp_path / "work" / "P003").write_text("a file")                      # not a folder
-    assert work.unkept_report_dir("P003") == work.report_dir("P003-2")
-    assert work.unkept_report_dir("../x") == work.report_dir("x")
+    assert path.parent == app.work_dir / ".reports" / "ict-mean" and path.is_file()
+    assert sorted(p.name for p in app.work_dir.iterdir()) == sorted({*before, ".reports"})

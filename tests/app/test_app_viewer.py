@@ -200,3 +200,36 @@ def test_save_view_as_png(served, monkeypatch):
     import cv2
     img = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
     assert img.shape[0] == 900 and img.std() > 10                # a face, not blank
+
+
+def test_the_nose_never_leaves_a_hole_while_its_glb_loads(served, baseline):
+    """Issue 27 item 2: a browser draws nothing where a replaced GLB is still decoding
+    (2 s and more with software WebGL). Under the textured nose lies a plain mesh of it in
+    the skin's colour, just inside it, whose vertices are sent first on every edit: after a
+    drag it has the new shape before the GLB is replaced, and hides and goes with it."""
+    from naseview.app.scene import UNDERLAY_INSET_MM
+
+    server, app, tabs = served
+    cams, photos = skin_photos(baseline)
+    set_face_look(app, make_look(baseline, app.moving, cams, photos, size=128))
+    tab, screen = open_tab(server, app)
+    tabs.append(tab)
+    sent: list[object] = []
+    ws = tab.client._websock_connection
+    orig = ws.queue_message
+    ws.queue_message = lambda m: (sent.append(m), orig(m))[1]
+    node = screen.scene.nose
+    parts: FaceGlb = screen.scene.parts
+    assert parts.nose_rgb != (0, 0, 0) and max(parts.nose_rgb) > 60   # skin, not black
+    drag(app.controller, "prn", np.array([0.0, 2.0, 2.0]))
+    assert app.controller.wait_idle(10)
+    P, N = parts.nose_geometry(app.controller.simulation.V)
+    np.testing.assert_allclose(node.underlay.vertices, P - UNDERLAY_INSET_MM * N, atol=1e-4)
+    kinds = [type(m).__name__ for m in sent]
+    last_glb = max(i for i, m in enumerate(sent) if getattr(m, "name", "") == "/face/nose")
+    under = [i for i, m in enumerate(sent)
+             if getattr(m, "name", "") == "/face/nose_underlay" and i < last_glb]
+    assert under, kinds            # the underlay's new shape went out before the new GLB
+    node.visible = False
+    assert not node.underlay.visible
+    node.visible = True
