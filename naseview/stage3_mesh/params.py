@@ -50,6 +50,8 @@ _RANGES: dict[str, tuple[Range, str]] = {
     "margin_mm": _R(0, 20, False, False, "the pinned ring around the region, mm"),
     "warp_bending_mm2": _R(0, 1000, False, False, "the warp's bending weight, mm^2"),
     "warp_radius_mm": _R(0, 200, True, False, "the warp's reach around handles, mm"),
+    "unfold_rings": _R(0, 20, True, True, "edge rings of the first unfolding patch "
+                                          "(0: no unfolding)"),
     "release_mm": _R(0, math.inf, False, False, "the handle miss that releases it, mm "
                                                     "(inf: none)"),
     "sight_iterations": _R(0, 20, True, True, "fit / line-of-sight placement rounds of "
@@ -123,6 +125,11 @@ class RefineParams:
             cannot; ARAP then only closes the small remainder.
         warp_bending_mm2: weight of the bending term (mm^2): larger is smoother/stiffer.
         warp_radius_mm: the warp acts within this distance (along edges) of the handles.
+        unfold_rings: triangles the warp turned over against the fitted face (a flap out
+            of a nostril, a slit along the alar groove; issue 27) are smoothed out before
+            ARAP, whose rest shape the warped face is:
+            :func:`~naseview.geometry.unfold.unfold` of the warp's displacement, from
+            this many edge rings around them (0: left as they are).
         release_mm: a handle still further than this from its target after the warp
             contradicts its neighbours on this face model (e.g. a landmark convention the
             model does not share); it is not made a hard ARAP constraint (warning), which
@@ -262,6 +269,7 @@ class RefineParams:
     use_warp: bool = True
     warp_bending_mm2: float = 0.5
     warp_radius_mm: float = 25.0
+    unfold_rings: int = 1
     release_mm: float = 1.0
     keep_landmarks: bool = True
     slide_landmarks: bool = True

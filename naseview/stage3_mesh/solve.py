@@ -47,6 +47,7 @@ from scipy.spatial import cKDTree
 from naseview.facemodel import FaceModel
 from naseview.geometry.mesh import vertex_adjacency
 from naseview.geometry.region import grow_by_distance
+from naseview.geometry.unfold import unfold
 from naseview.reconstruction import Reconstruction
 from naseview.stage3_mesh.correspondences import Correspondences, correspondences
 from naseview.stage3_mesh.curve_fractions import AdLandmarkTag
@@ -57,6 +58,10 @@ from naseview.stage3_mesh.profile_band import matched_region
 from naseview.stage3_mesh.result import RefineResult
 from naseview.stage3_mesh.silhouette import Silhouette, contour_targets, edge_faces
 from naseview.stage3_mesh.warp import smooth_warp
+
+UNFOLD_ROUNDS = 8
+"""Rounds of :func:`~naseview.geometry.unfold.unfold` on the warped base (each one ring
+wider)."""
 
 _SubLandmarks = tuple[np.ndarray | None, Sequence[AdLandmarkTag] | None]
 """Stage 2's (M, 3) ad-landmarks and their M tags (both None when there are none)."""
@@ -75,7 +80,10 @@ def warped_base(model: FaceModel, fit: BaseFit, landmarks: dict[str, np.ndarray]
                  sub: _SubLandmarks, params: RefineParams
                  ) -> tuple[np.ndarray, Correspondences, list[str]]:
     """The handles on the fitted face, then (``params.use_warp``) the face bent smoothly
-    towards them and the handles found again on it: (base (V, 3), handles, warnings)."""
+    towards them and the handles found again on it: (base (V, 3), handles, warnings).
+    Triangles the warp turned over against the fit are smoothed out
+    (``params.unfold_rings``): ARAP keeps the rest shape's folds, a flap out of the
+    nostril on the generic face (issue 27)."""
     ad, tags = sub
     handles, warnings = correspondences(model, fit.vertices, landmarks, ad, tags, params)
     base = fit.vertices
@@ -84,6 +92,9 @@ def warped_base(model: FaceModel, fit: BaseFit, landmarks: dict[str, np.ndarray]
         around = grow_by_distance(base, model.faces, handles.vertex_ids, params.warp_radius_mm)
         base = smooth_warp(base, model.faces, handles.vertex_ids, handles.targets,
                            1.0 / np.maximum(sig, 1e-6) ** 2, params.warp_bending_mm2, around)
+        if params.unfold_rings:
+            base = unfold(base, model.faces, fit.vertices, rings=params.unfold_rings,
+                          max_rounds=UNFOLD_ROUNDS)[0]
         handles, _ = correspondences(model, base, landmarks, ad, tags, params)
     return base, handles, warnings
 
