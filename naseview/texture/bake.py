@@ -8,7 +8,8 @@ offers the colour it shows there, weighted by
   :func:`naseview.render.rasterize`, ``tol_mm`` tolerance), so the nose never lends its
   colour to the cheek it hides;
 - **view angle**: ``((cos - cos_min) / (1 - cos_min)) ** angle_power`` of the angle between
-  the surface normal and the direction to the camera, zero at grazing angles;
+  the surface normal and the direction to the camera, zero at grazing angles, and zero
+  where the photo sees the back of the texel's triangle (a fold);
 - **distance to an edge**: a ramp over ``feather_px`` pixels from the image border, the
   rendered silhouette, depth discontinuities and the backdrop (the uniform background that
   stage 2 removes, :mod:`naseview.stage2_curves.mask`), so seams between photos blend and
@@ -49,7 +50,7 @@ from numpy.typing import ArrayLike
 from naseview.camera import Camera
 from naseview.errors import NaseviewError
 from naseview.geometry.closing import cap_holes, cap_values
-from naseview.geometry.mesh import vertex_normals
+from naseview.geometry.mesh import face_normals, vertex_normals
 from naseview.render import rasterize, rasterize_screen, visible_points
 from naseview.stage2_curves.mask import estimate_background, foreground_mask
 from naseview.texture.uv import face_uv, uv_to_pixels
@@ -416,6 +417,7 @@ def bake_texture(V: ArrayLike, F: ArrayLike, cameras: Mapping[str, Camera],
     P = np.einsum("tk,tkc->tc", b, Vc[corners])
     N = np.einsum("tk,tkc->tc", b, vertex_normals(Vc, Fc)[corners])
     N /= np.maximum(np.linalg.norm(N, axis=1, keepdims=True), 1e-12)
+    FN = face_normals(Vc, Fc)[plan.tri]          # the texel's own triangle (its true side)
     samples: dict[str, np.ndarray] = {}
     weights: dict[str, np.ndarray] = {}
     for v in views:
@@ -423,7 +425,11 @@ def bake_texture(V: ArrayLike, F: ArrayLike, cameras: Mapping[str, Camera],
         to_cam = cam.center - P
         cos = np.einsum("ij,ij->i", N, to_cam) / np.maximum(
             np.linalg.norm(to_cam, axis=1), 1e-12)
-        facing = np.flatnonzero(cos > p.cos_min)          # only these can get a weight
+        # only these can get a weight: the smooth normal faces the photo, and so does the
+        # triangle itself (a folded one's smooth normal may face it while the photo sees
+        # its back, and lends it another place's colour; issue 27)
+        facing = np.flatnonzero((cos > p.cos_min)
+                                & (np.einsum("ij,ij->i", FN, to_cam) > 0.0))
         w_ang = ((cos[facing] - p.cos_min) / (1.0 - p.cos_min)) ** p.angle_power
         small, s = _depth_camera(cam)
         depth_small = rasterize(Vc, Fc, small).depth

@@ -125,3 +125,32 @@ def test_bad_inputs_are_one_line_errors() -> None:
     closed_F = np.array([[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]])
     with pytest.raises(NaseviewError, match="no border"):
         face_uv(np.eye(4, 3) + [0, 0, 0.1], closed_F)
+
+
+def test_a_photo_never_textures_the_back_of_a_triangle() -> None:
+    """Issue 27: a folded triangle's smooth normal can face a photo that sees its back;
+    that photo must not lend it a colour (the flap out of the nostril got the cheek's)."""
+    from naseview.camera import orbit_camera
+    from naseview.texture.bake import BakeParams, bake_texture
+
+    xs, ys = np.meshgrid(np.linspace(-20, 20, 9), np.linspace(-20, 20, 9))
+    V = np.c_[xs.ravel(), ys.ravel(), np.zeros(81)]
+    F = np.array([[r * 9 + c, r * 9 + c + 1, (r + 1) * 9 + c] for r in range(8)
+                  for c in range(8)] + [[r * 9 + c + 1, (r + 1) * 9 + c + 1,
+                                         (r + 1) * 9 + c] for r in range(8) for c in range(8)])
+    W = V.copy()
+    W[40] += [-8.0, -7.0, 0.0]                       # pulled across: triangles turn over
+    fn = np.cross(W[F[:, 1]] - W[F[:, 0]], W[F[:, 2]] - W[F[:, 0]])
+    back = np.flatnonzero(fn[:, 2] < 0)
+    assert len(back)
+    cam = orbit_camera(np.zeros(3), (0.0, 0.0, 1.0), 600.0, 60.0, 200)
+    photo = np.full((200, 200, 3), (40, 80, 200), np.uint8)
+    tex = bake_texture(W, F, {"front": cam}, {"front": photo},
+                       BakeParams(size=128, mask_backdrop=False, border_feather=0.0))
+    from naseview.texture.bake import texel_plan
+    plan = texel_plan(W, F, 128)
+    on_back = np.isin(plan.tri, back)
+    assert on_back.any()
+    covered = tex.coverage.reshape(-1)[plan.texels]
+    assert not covered[on_back].any()
+    assert covered[~on_back].mean() > 0.5
