@@ -55,6 +55,7 @@ import viser
 from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
 from naseview.app.landmark_diagrams import LandmarkDiagrams
+from naseview.app.landmark_names import display_name
 from naseview.app.markdown_text import markdown_text
 from naseview.app.patients_panel import PatientList
 from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
@@ -69,11 +70,11 @@ from naseview.app.scope import (
 from naseview.app.upload_limit import UploadLimit
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
-from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, describe
+from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, definition
 from naseview.intake.guidance import Guidance
 from naseview.intake.patients import PatientFolders
 from naseview.intake.session import AnnotationSession, InProgress, default_case_id
-from naseview.landmarks import LANDMARKS, VIEWS
+from naseview.landmarks import VIEWS
 from naseview.records import PatientRecords
 
 log = logging.getLogger(__name__)
@@ -84,6 +85,8 @@ HINT_RGB = (255, 40, 200)
 OTHER_HINT_RGB = (40, 200, 255)
 VIEW_BUTTONS = {"Front": "front", "Bottom": "bottom", "Left": "left", "Right": "right"}
 _UNSET = object()
+PICK_NONE = "— choose a landmark —"
+"""The landmark drop-down's entry while the landmark being clicked is in another photo."""
 
 
 GuiEvent = viser.GuiEvent[Any]
@@ -174,8 +177,9 @@ class AnnotatePage:
             # intake on top, but it shrinks to one line once the four photos are in, so
             # that the landmark section sits right under it without scrolling
             with gui.add_folder("Patient and photos", order=1.0) as self.f_intake:
-                self.resume_dd = gui.add_dropdown("Unfinished", ("—",), visible=False,
-                                                  hint="Annotations saved automatically")
+                self.resume_dd = gui.add_dropdown("Annotated", ("—",), visible=False,
+                                                  hint="Annotations saved automatically; "
+                                                  "✓ reconstructed: its case was written")
                 self.resume_btn = gui.add_button("Resume this patient", visible=False,
                                                  icon=viser.Icon.PLAYER_PLAY)
                 self.alal = gui.add_number("al_l-al_r (mm)", 0.0, min=0.0, max=80.0,
@@ -214,7 +218,7 @@ class AnnotatePage:
                 self.progress = gui.add_progress_bar(0.0, color="green")
                 self.hint_md = gui.add_markdown("")
                 self.zoom = gui.add_button_group("Zoom", ("Whole photo", "Nose"))
-                self.pick = gui.add_dropdown("Landmark", ("—",),
+                self.pick = gui.add_dropdown("Landmark", (PICK_NONE,),
                                              hint="Choose a landmark to click (again)")
                 self.labels_cb = gui.add_checkbox("Labels on clicks", True)
             with gui.add_folder("Reconstruct", order=3.0) as self.f_rec:
@@ -302,7 +306,7 @@ class AnnotatePage:
         Raises:
             NaseviewError: ``case_id`` is given and another patient has it.
         """
-        session = self.folders.new_session(case_id)
+        session = self.folders.new_session(case_id, lazy=True)
         self._attach(session)
         return session
 
@@ -541,10 +545,13 @@ class AnnotatePage:
     def _resume_label(a: InProgress) -> str:
         if a.problem is not None:
             return f"{a.case_id} · damaged ({a.folder.name})"
+        if a.finished:    # its case was written: marked, so it is not taken for unfinished
+            return f"{a.case_id} · ✓ reconstructed · {a.clicks} clicks · {a.updated[:16]}"
         return f"{a.case_id} · {a.clicks} clicks · {a.updated[:16]}"
 
     def _refresh_resume_list(self) -> None:
         items = self.folders.annotations()
+        items.sort(key=lambda a: a.finished)     # unfinished first, newest first (stable)
         labels = [self._resume_label(a) for a in items
                   if self.session is None or a.folder != self.session.folder]
         if labels:
@@ -707,9 +714,9 @@ class AnnotatePage:
         want: dict[str, tuple[str, np.ndarray]] = {}
         if self.labels_cb.value:
             for i, xy in clicks.items():
-                want[f"label:{i}"] = (LANDMARKS[i].paper, xy)
+                want[f"label:{i}"] = (display_name(i), xy)
         if target is not None and target in hints:
-            want[f"label:{target}"] = (LANDMARKS[target].paper + " ?", hints[target])
+            want[f"label:{target}"] = (display_name(target) + " ?", hints[target])
         r = plane.marker_radius()
         for key in [k for k in self._handles if k.startswith("label:") and k not in want]:
             self._handles.pop(key).remove()
@@ -811,8 +818,8 @@ class AnnotatePage:
             return
         v, lid = t
         where = "" if v == self.view else f" (in the {v} photo)"
-        self._set(self.target_md, "content", f"### Click **{LANDMARKS[lid].paper}**{where}\n"
-                                             f"{describe(lid, v)}")
+        self._set(self.target_md, "content", f"### Click **{display_name(lid)}**{where}\n"
+                                             f"{definition(lid, v)}")
         img = self.diagrams.get(v, lid)
         if img is None:
             self._set(self.diagram, "visible", False)
@@ -825,10 +832,13 @@ class AnnotatePage:
     def _panel_marks(self, s: AnnotationSession, t: tuple[str, str] | None) -> None:
         """The landmark list of this photo (done / skipped / to do), Undo and Skip."""
         marks = {"placed": "✓", "skipped": "–", "todo": "·"}
-        opts = tuple(f"{marks[s.status(self.view, i)]} {i}" for i in CLICK_ORDER[self.view])
-        self._set(self.pick, "options", opts)
-        if t is not None and t[0] == self.view:
-            self._set(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])])
+        opts = tuple(f"{marks[s.status(self.view, i)]} {display_name(i)}"
+                     for i in CLICK_ORDER[self.view])
+        self._set(self.pick, "options", (PICK_NONE, *opts))
+        # the entry shown is the landmark being clicked in this photo, else none: an
+        # entry shown is never stale, so choosing any landmark is a change the page sees
+        self._set(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])]
+                  if t is not None and t[0] == self.view else PICK_NONE)
         self._set(self.undo_btn, "disabled", not s.can_undo)
         self._set(self.skip_btn, "disabled", t is None)
 
@@ -847,8 +857,10 @@ class AnnotatePage:
         """The Reconstruct button, enabled once nothing is missing, and what is."""
         probs = s.problems()
         self._set(self.rec_btn, "disabled", bool(probs))
-        self._set(self.problems_md, "content", "Ready." if not probs else
-                  "To do:  \n" + "  \n".join(f"- {p}" for p in probs[:6]))
+        text = "Ready." if not probs else "To do:  \n" + "  \n".join(
+            f"- {p}" for p in probs[:6])
+        text += "".join(f"  \n⚠ {c}" for c in s.cautions())
+        self._set(self.problems_md, "content", text)
 
     def _panel_views(self, s: AnnotationSession) -> None:
         """The photo buttons with each photo's progress; the landmark folder."""
@@ -895,9 +907,10 @@ class AnnotatePage:
             return
         s.place(v, lid, uv)
         self.events.append((time.monotonic(), f"place {v} {lid}"))
+        chosen = self.override is not None
         self.override = None
         self.show_error(None)
-        self._after_change()
+        self._after_change(stay=chosen)
 
     def _skip(self) -> None:
         s = self.session
@@ -906,8 +919,9 @@ class AnnotatePage:
             return
         s.skip(*t)
         self.events.append((time.monotonic(), f"skip {t[0]} {t[1]}"))
+        chosen = self.override is not None
         self.override = None
-        self._after_change()
+        self._after_change(stay=chosen)
 
     def _undo(self) -> None:
         s = self.session
@@ -925,22 +939,25 @@ class AnnotatePage:
     def _on_pick(self, value: str) -> None:
         """The user chose a landmark in the list: it becomes the target; its old click
         stays until the new one is placed (undo restores it)."""
-        lid = value.split(" ", 1)[-1]
+        name = value.split(" ", 1)[-1]
         self._sent.pop((id(self.pick), "value"), None)  # the browser changed it
 
         def pick() -> None:
-            t = self.target
-            if lid in CLICK_ORDER[self.view] and (t is None or t[1] != lid):
-                self.override = lid
-                self._redraw()
+            lid = next((i for i in CLICK_ORDER[self.view] if display_name(i) == name), None)
+            if lid is not None and self.target != (self.view, lid):
+                self.override = lid      # also when the guided target is the same id in
+                self._redraw()           # another photo (g, n... are in several)
         self.submit(pick)
 
-    def _after_change(self) -> None:
+    def _after_change(self, stay: bool = False) -> None:
+        """Redraw after a click, skip or undo; once the guided flow finishes a photo,
+        go on to the next one, unless ``stay`` (a landmark the user chose was clicked
+        again: the page stays on its photo until the user moves on)."""
         s = self.session
         assert s is not None
         self.show_error(None)
         nxt = s.next_target(self.view)
-        if nxt is not None and nxt[0] != self.view and self.override is None:
+        if nxt is not None and nxt[0] != self.view and self.override is None and not stay:
             done_view = self.view
             self.set_view(nxt[0], fit=True)
             self.notify(f"{done_view.capitalize()} photo done",
