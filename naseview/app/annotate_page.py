@@ -8,9 +8,11 @@ names the next landmark with a one-line description and a small diagram of where
 (:mod:`naseview.app.landmark_diagrams`); a click places it and the next one follows
 (:mod:`naseview.intake` holds the order and every rule, no viser).
 Placed clicks are green rings that can be dragged; Undo and "Not visible" (skip) are one
-button each. Once enough clicks exist, the reprojection of the already reconstructed
-landmarks (quick stage 1, paper §3.2, in a background worker) shows as a magenta ring where the
-next landmark should be, and as small cyan dots for the other remaining ones.
+button each. From the second click in a photo, the next landmark is pre-placed as a
+magenta ring (:mod:`naseview.intake.predict`: a fit of the generic nose to the clicks so
+far, and once enough clicks exist the reprojection of the already reconstructed landmarks,
+quick stage 1, paper §3.2, in a background worker), the other remaining ones as small
+cyan dots; "Accept the marker" places the landmark there in one click.
 
 "Reconstruct" writes the SPEC §3 case directory (``WORK/<id>/case``, rerunnable with
 ``naseview reconstruct``) and opens it in the app (:class:`naseview.app.serve.NaseviewApp`),
@@ -73,6 +75,7 @@ from naseview.facemodel import FaceModel
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, definition
 from naseview.intake.guidance import Guidance
 from naseview.intake.patients import PatientFolders
+from naseview.intake.predict import predict_next
 from naseview.intake.session import AnnotationSession, InProgress, default_case_id
 from naseview.landmarks import VIEWS
 from naseview.records import PatientRecords
@@ -154,6 +157,7 @@ class AnnotatePage:
         self._drag_time = 0.0
         self._sent: dict[tuple[int, str], object] = {}
         self._intake_open = False
+        self._last_pred: dict[str, np.ndarray] = {}   # the markers drawn last
         self._last_upload = 0.0
         self._taken_id: str | None = None      # an id typed that another patient has
         self._build_gui()
@@ -210,6 +214,10 @@ class AnnotatePage:
                 self.target_md = gui.add_markdown("")
                 self.diagram = gui.add_image(np.full((8, 8, 3), 245, np.uint8),
                                              format="jpeg", jpeg_quality=88, visible=False)
+                self.accept_btn = gui.add_button(
+                    "Accept the marker", icon=viser.Icon.CHECK, color="pink",
+                    disabled=True, hint="Place the landmark on the pink marker, which is "
+                    "where the clicks so far put it; click on the photo instead if it is off")
                 self.skip_btn = gui.add_button("Not visible — skip",
                                                icon=viser.Icon.PLAYER_SKIP_FORWARD,
                                                hint="This landmark cannot be seen here")
@@ -271,6 +279,7 @@ class AnnotatePage:
         self.zoom.on_click(user(lambda e: self.submit(
             self.fit_camera if e.target.value == "Whole photo" else self.zoom_nose)))
         self.skip_btn.on_click(safe(lambda e: self.submit(self._skip)))
+        self.accept_btn.on_click(safe(lambda e: self.submit(self._accept)))
         self.undo_btn.on_click(safe(lambda e: self.submit(self._undo)))
         self.pick.on_update(user(lambda e: self._on_pick(str(e.target.value))))
         self.labels_cb.on_update(user(lambda e: self.submit(self._redraw)))
@@ -678,6 +687,7 @@ class AnnotatePage:
         if s is None:
             return
         self.target = self._current_target()
+        self._last_pred = {}
         if plane is not None and "clicks" in self._handles:
             order = CLICK_ORDER[self.view]
             far = plane.centre + np.array([0.0, 0.0, -50.0])
@@ -689,7 +699,8 @@ class AnnotatePage:
             tgt = self.target[1] if self.target and self.target[0] == self.view else None
             cols = np.array([ACTIVE_RGB if i == tgt else PLACED_RGB for i in order],
                             np.uint8)
-            hints = self.guidance.hints(self.view, set(clicks)) if self.guidance else {}
+            hints = self._predicted()
+            self._last_pred = hints
             hpos = np.array([plane.to_world(hints[i], 0.2)[0]
                              if i in hints and i != tgt else far for i in order])
             with self.scope.atomic():
@@ -840,6 +851,8 @@ class AnnotatePage:
         self._set(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])]
                   if t is not None and t[0] == self.view else PICK_NONE)
         self._set(self.undo_btn, "disabled", not s.can_undo)
+        self._set(self.accept_btn, "disabled", t is None or t[0] != self.view
+                  or t[1] not in self._last_pred)
         self._set(self.skip_btn, "disabled", t is None)
 
     def _panel_hints(self) -> None:
@@ -911,6 +924,32 @@ class AnnotatePage:
         self.override = None
         self.show_error(None)
         self._after_change(stay=chosen)
+
+    def _predicted(self) -> dict[str, np.ndarray]:
+        """id -> (2,) px: where the landmarks not clicked in this photo probably are
+        (:func:`naseview.intake.predict.predict_next`: the guidance reprojection, else
+        the template fit of the clicks so far)."""
+        s = self.session
+        if s is None or self.view not in s.photos:
+            return {}
+        clicks = s.clicks[self.view]
+        g = self.guidance
+        pred = predict_next(self.view, s.clicks,
+                            g.hints(self.view, set(clicks)) if g is not None else None)
+        plane = self.plane
+        if plane is None:
+            return pred
+        return {i: p for i, p in pred.items() if plane.inside(p)}
+
+    def _accept(self) -> None:
+        """Place the landmark being clicked on its pre-placed marker (one click)."""
+        t = self._current_target()
+        if t is None or t[0] != self.view:
+            return
+        p = self._predicted().get(t[1])
+        if p is None:
+            return
+        self._place_click(self.view, np.asarray(p, np.float64))
 
     def _skip(self) -> None:
         s = self.session

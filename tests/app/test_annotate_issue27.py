@@ -121,3 +121,25 @@ def test_opening_the_page_leaves_no_empty_folder_and_finished_patients_are_marke
     page._refresh_resume_list()
     finished = [o for o in page.resume_dd.options if o.startswith(s.case_id)]
     assert finished and "reconstructed" in finished[0]
+
+
+def test_the_next_landmark_is_pre_placed_and_accepted_in_one_click(page: AnnotatePage):
+    """From two clicks in a photo, the next landmark has a marker; "Accept the marker"
+    places it there (a confirmation instead of finding it)."""
+    from naseview.intake.predict import template_layout
+    s = page.start("n4")
+    page.upload("front", png_bytes(np.full((800, 600, 3), 120, np.uint8)))
+    assert page.wait_idle(10)
+    assert page.accept_btn.disabled                    # no click yet: nothing to predict
+    lay = template_layout("front")
+    for i in ("g", "n"):
+        page.submit(lambda i=i: page._place_click("front", lay[i] * 6.0 + [300.0, 250.0]))
+    assert page.wait_idle(10)
+    assert page.target == ("front", "k") and not page.accept_btn.disabled
+    hint = page._handles["hint"]
+    assert hint.visible is page.active
+    page.submit(page._accept)
+    assert page.wait_idle(10)
+    np.testing.assert_allclose(s.clicks["front"]["k"], lay["k"] * 6.0 + [300.0, 250.0],
+                               atol=1e-6)
+    assert page.target == ("front", "r")
