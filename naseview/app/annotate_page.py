@@ -75,6 +75,7 @@ from naseview.facemodel import FaceModel
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, definition
 from naseview.intake.guidance import Guidance
 from naseview.intake.patients import PatientFolders
+from naseview.intake.photo_check import photo_warning
 from naseview.intake.predict import predict_next
 from naseview.intake.session import AnnotationSession, InProgress, default_case_id
 from naseview.landmarks import VIEWS
@@ -158,6 +159,7 @@ class AnnotatePage:
         self._sent: dict[tuple[int, str], object] = {}
         self._intake_open = False
         self._last_pred: dict[str, np.ndarray] = {}   # the markers drawn last
+        self._photo_warnings: dict[str, str] = {}      # view -> photo_warning at upload
         self._last_upload = 0.0
         self._taken_id: str | None = None      # an id typed that another patient has
         self._build_gui()
@@ -345,6 +347,7 @@ class AnnotatePage:
     def _attach(self, session: AnnotationSession) -> None:
         with self._lock:
             self.session = session
+            self._photo_warnings = {}
             self.override = None
             self.guidance = None
             self._offer_open(None)
@@ -454,6 +457,11 @@ class AnnotatePage:
         s = self._need_session()
         had = len(s.clicks[view])
         info = s.add_photo(view, data, name)
+        self._photo_warnings.pop(view, None)
+        warning = photo_warning(view, s.image(view))
+        if warning is not None:       # taken all the same: the surgeon decides; one
+            self._photo_warnings[view] = warning    # line in the panel (a toast would sit
+            # over the photo's midline, where the first landmarks are clicked)
         self._last_upload = time.monotonic()
         timer = threading.Timer(2.2, lambda: self.submit(self._update_panel))
         timer.daemon = True
@@ -804,15 +812,17 @@ class AnnotatePage:
         S(self.change_btn, "label", "Done" if self._intake_open
           else "Change photos, id or distances")
         S(self.intake_md, "visible", not full)
-        S(self.intake_md, "content", f"Four photos loaded · case **{s.case_id}**")
         for view, btn in self.uploads.items():
             S(btn, "label", f"{names[view]} photo ✓" if view in s.photos
               else f"{names[view]} photo")
             S(btn, "color", "green" if view in s.photos else None)
         S(self.photo_info, "content", "  \n".join(
-            f"{v}: downscaled from {p.original_width}×{p.original_height} to "
-            f"{p.width}×{p.height} px" for v, p in s.photos.items() if p.downscaled)
+            [f"⚠ {w}" for v, w in self._photo_warnings.items() if v in s.photos]
+            + [f"{v}: downscaled from {p.original_width}×{p.original_height} to "
+               f"{p.width}×{p.height} px" for v, p in s.photos.items() if p.downscaled])
           or ("JPEG or PNG; EXIF removed on upload." if len(s.photos) < 4 else ""))
+        S(self.intake_md, "content", f"Four photos loaded · case **{s.case_id}**" + "".join(
+            f"  \n⚠ {w}" for v, w in self._photo_warnings.items() if v in s.photos))
 
     def _panel_target(self, t: tuple[str, str] | None) -> None:
         """What to click next, with its description and diagram (or why nothing)."""

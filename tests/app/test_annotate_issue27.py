@@ -143,3 +143,26 @@ def test_the_next_landmark_is_pre_placed_and_accepted_in_one_click(page: Annotat
     np.testing.assert_allclose(s.clicks["front"]["k"], lay["k"] * 6.0 + [300.0, 250.0],
                                atol=1e-6)
     assert page.target == ("front", "r")
+
+
+def test_a_house_as_front_photo_and_a_profile_as_bottom_photo_are_named_at_upload(
+        page: AnnotatePage):
+    """Issue 27 item 7: taken all the same, but one line in the panel names the slot and
+    what looks wrong; a real front photo gets none."""
+    import cv2
+    house = np.full((600, 800, 3), (235, 206, 135), np.uint8)          # sky
+    house[250:600, 150:650] = (60, 60, 160)                           # red walls
+    cv2.fillPoly(house, [np.array([[120, 250], [400, 80], [680, 250]])], (40, 40, 40))
+    page.start("n5")
+    page.upload("front", png_bytes(house))
+    assert page.wait_idle(10)
+    assert "⚠ the 'front' photo looks like no face" in page.photo_info.content
+    scans = Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "scan-cases"
+    if not (scans / "james-a" / "left.jpg").is_file():
+        pytest.skip("../shared/data/scan-cases/james-a is missing")
+    page.upload("bottom", (scans / "james-a" / "left.jpg").read_bytes())
+    assert page.wait_idle(10)
+    assert "⚠ the 'bottom' photo looks like a profile" in page.photo_info.content
+    page.upload("front", (scans / "james-a" / "front.jpg").read_bytes())
+    assert page.wait_idle(10)
+    assert "'front'" not in page.photo_info.content
