@@ -76,7 +76,7 @@ def photo_warning(view: str, image: np.ndarray) -> str | None:
         sym = float(blob[ys[ok], mx[ok]].sum()) / len(xs)
         if sym < MIN_SYMMETRY:
             return slot_message(view, "a profile", f"the face is not left-right "
-                                f"symmetric ({100 * sym:.0f} %)")
+                                f"symmetric: {100 * sym:.0f} %")
     return None
 
 
