@@ -8,9 +8,11 @@ names the next landmark with a one-line description and a small diagram of where
 (:mod:`naseview.app.landmark_diagrams`); a click places it and the next one follows
 (:mod:`naseview.intake` holds the order and every rule, no viser).
 Placed clicks are green rings that can be dragged; Undo and "Not visible" (skip) are one
-button each. Once enough clicks exist, the reprojection of the already reconstructed
-landmarks (quick stage 1, paper §3.2, in a background worker) shows as a magenta ring where the
-next landmark should be, and as small cyan dots for the other remaining ones.
+button each. From the second click in a photo, the next landmark is pre-placed as a
+magenta ring (:mod:`naseview.intake.predict`: a fit of the generic nose to the clicks so
+far, and once enough clicks exist the reprojection of the already reconstructed landmarks,
+quick stage 1, paper §3.2, in a background worker), the other remaining ones as small
+cyan dots; "Accept the marker" places the landmark there in one click.
 
 "Reconstruct" writes the SPEC §3 case directory (``WORK/<id>/case``, rerunnable with
 ``naseview reconstruct``) and opens it in the app (:class:`naseview.app.serve.NaseviewApp`),
@@ -55,6 +57,7 @@ import viser
 from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
 from naseview.app.landmark_diagrams import LandmarkDiagrams
+from naseview.app.landmark_names import display_name
 from naseview.app.markdown_text import markdown_text
 from naseview.app.patients_panel import PatientList
 from naseview.app.photo_camera import fit_photo, frame_pixels, nose_box, screen_box_pixels
@@ -69,11 +72,13 @@ from naseview.app.scope import (
 from naseview.app.upload_limit import UploadLimit
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
-from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, describe
+from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, definition
 from naseview.intake.guidance import Guidance
 from naseview.intake.patients import PatientFolders
+from naseview.intake.photo_check import photo_warning
+from naseview.intake.predict import predict_next
 from naseview.intake.session import AnnotationSession, InProgress, default_case_id
-from naseview.landmarks import LANDMARKS, VIEWS
+from naseview.landmarks import VIEWS
 from naseview.records import PatientRecords
 
 log = logging.getLogger(__name__)
@@ -84,6 +89,8 @@ HINT_RGB = (255, 40, 200)
 OTHER_HINT_RGB = (40, 200, 255)
 VIEW_BUTTONS = {"Front": "front", "Bottom": "bottom", "Left": "left", "Right": "right"}
 _UNSET = object()
+PICK_NONE = "— choose a landmark —"
+"""The landmark drop-down's entry while the landmark being clicked is in another photo."""
 
 
 GuiEvent = viser.GuiEvent[Any]
@@ -151,6 +158,8 @@ class AnnotatePage:
         self._drag_time = 0.0
         self._sent: dict[tuple[int, str], object] = {}
         self._intake_open = False
+        self._last_pred: dict[str, np.ndarray] = {}   # the markers drawn last
+        self._photo_warnings: dict[str, str] = {}      # view -> photo_warning at upload
         self._last_upload = 0.0
         self._taken_id: str | None = None      # an id typed that another patient has
         self._build_gui()
@@ -174,8 +183,9 @@ class AnnotatePage:
             # intake on top, but it shrinks to one line once the four photos are in, so
             # that the landmark section sits right under it without scrolling
             with gui.add_folder("Patient and photos", order=1.0) as self.f_intake:
-                self.resume_dd = gui.add_dropdown("Unfinished", ("—",), visible=False,
-                                                  hint="Annotations saved automatically")
+                self.resume_dd = gui.add_dropdown("Annotated", ("—",), visible=False,
+                                                  hint="Annotations saved automatically; "
+                                                  "✓ reconstructed: its case was written")
                 self.resume_btn = gui.add_button("Resume this patient", visible=False,
                                                  icon=viser.Icon.PLAYER_PLAY)
                 self.alal = gui.add_number("al_l-al_r (mm)", 0.0, min=0.0, max=80.0,
@@ -206,6 +216,10 @@ class AnnotatePage:
                 self.target_md = gui.add_markdown("")
                 self.diagram = gui.add_image(np.full((8, 8, 3), 245, np.uint8),
                                              format="jpeg", jpeg_quality=88, visible=False)
+                self.accept_btn = gui.add_button(
+                    "Accept the marker", icon=viser.Icon.CHECK, color="pink",
+                    disabled=True, hint="Place the landmark on the pink marker, which is "
+                    "where the clicks so far put it; click on the photo instead if it is off")
                 self.skip_btn = gui.add_button("Not visible — skip",
                                                icon=viser.Icon.PLAYER_SKIP_FORWARD,
                                                hint="This landmark cannot be seen here")
@@ -214,7 +228,7 @@ class AnnotatePage:
                 self.progress = gui.add_progress_bar(0.0, color="green")
                 self.hint_md = gui.add_markdown("")
                 self.zoom = gui.add_button_group("Zoom", ("Whole photo", "Nose"))
-                self.pick = gui.add_dropdown("Landmark", ("—",),
+                self.pick = gui.add_dropdown("Landmark", (PICK_NONE,),
                                              hint="Choose a landmark to click (again)")
                 self.labels_cb = gui.add_checkbox("Labels on clicks", True)
             with gui.add_folder("Reconstruct", order=3.0) as self.f_rec:
@@ -267,6 +281,7 @@ class AnnotatePage:
         self.zoom.on_click(user(lambda e: self.submit(
             self.fit_camera if e.target.value == "Whole photo" else self.zoom_nose)))
         self.skip_btn.on_click(safe(lambda e: self.submit(self._skip)))
+        self.accept_btn.on_click(safe(lambda e: self.submit(self._accept)))
         self.undo_btn.on_click(safe(lambda e: self.submit(self._undo)))
         self.pick.on_update(user(lambda e: self._on_pick(str(e.target.value))))
         self.labels_cb.on_update(user(lambda e: self.submit(self._redraw)))
@@ -302,7 +317,7 @@ class AnnotatePage:
         Raises:
             NaseviewError: ``case_id`` is given and another patient has it.
         """
-        session = self.folders.new_session(case_id)
+        session = self.folders.new_session(case_id, lazy=True)
         self._attach(session)
         return session
 
@@ -332,6 +347,7 @@ class AnnotatePage:
     def _attach(self, session: AnnotationSession) -> None:
         with self._lock:
             self.session = session
+            self._photo_warnings = {}
             self.override = None
             self.guidance = None
             self._offer_open(None)
@@ -441,6 +457,11 @@ class AnnotatePage:
         s = self._need_session()
         had = len(s.clicks[view])
         info = s.add_photo(view, data, name)
+        self._photo_warnings.pop(view, None)
+        warning = photo_warning(view, s.image(view))
+        if warning is not None:       # taken all the same: the surgeon decides; one
+            self._photo_warnings[view] = warning    # line in the panel (a toast would sit
+            # over the photo's midline, where the first landmarks are clicked)
         self._last_upload = time.monotonic()
         timer = threading.Timer(2.2, lambda: self.submit(self._update_panel))
         timer.daemon = True
@@ -541,10 +562,13 @@ class AnnotatePage:
     def _resume_label(a: InProgress) -> str:
         if a.problem is not None:
             return f"{a.case_id} · damaged ({a.folder.name})"
+        if a.finished:    # its case was written: marked, so it is not taken for unfinished
+            return f"{a.case_id} · ✓ reconstructed · {a.clicks} clicks · {a.updated[:16]}"
         return f"{a.case_id} · {a.clicks} clicks · {a.updated[:16]}"
 
     def _refresh_resume_list(self) -> None:
         items = self.folders.annotations()
+        items.sort(key=lambda a: a.finished)     # unfinished first, newest first (stable)
         labels = [self._resume_label(a) for a in items
                   if self.session is None or a.folder != self.session.folder]
         if labels:
@@ -671,6 +695,7 @@ class AnnotatePage:
         if s is None:
             return
         self.target = self._current_target()
+        self._last_pred = {}
         if plane is not None and "clicks" in self._handles:
             order = CLICK_ORDER[self.view]
             far = plane.centre + np.array([0.0, 0.0, -50.0])
@@ -682,7 +707,8 @@ class AnnotatePage:
             tgt = self.target[1] if self.target and self.target[0] == self.view else None
             cols = np.array([ACTIVE_RGB if i == tgt else PLACED_RGB for i in order],
                             np.uint8)
-            hints = self.guidance.hints(self.view, set(clicks)) if self.guidance else {}
+            hints = self._predicted()
+            self._last_pred = hints
             hpos = np.array([plane.to_world(hints[i], 0.2)[0]
                              if i in hints and i != tgt else far for i in order])
             with self.scope.atomic():
@@ -707,9 +733,9 @@ class AnnotatePage:
         want: dict[str, tuple[str, np.ndarray]] = {}
         if self.labels_cb.value:
             for i, xy in clicks.items():
-                want[f"label:{i}"] = (LANDMARKS[i].paper, xy)
+                want[f"label:{i}"] = (display_name(i), xy)
         if target is not None and target in hints:
-            want[f"label:{target}"] = (LANDMARKS[target].paper + " ?", hints[target])
+            want[f"label:{target}"] = (display_name(target) + " ?", hints[target])
         r = plane.marker_radius()
         for key in [k for k in self._handles if k.startswith("label:") and k not in want]:
             self._handles.pop(key).remove()
@@ -786,15 +812,17 @@ class AnnotatePage:
         S(self.change_btn, "label", "Done" if self._intake_open
           else "Change photos, id or distances")
         S(self.intake_md, "visible", not full)
-        S(self.intake_md, "content", f"Four photos loaded · case **{s.case_id}**")
         for view, btn in self.uploads.items():
             S(btn, "label", f"{names[view]} photo ✓" if view in s.photos
               else f"{names[view]} photo")
             S(btn, "color", "green" if view in s.photos else None)
         S(self.photo_info, "content", "  \n".join(
-            f"{v}: downscaled from {p.original_width}×{p.original_height} to "
-            f"{p.width}×{p.height} px" for v, p in s.photos.items() if p.downscaled)
+            [f"⚠ {w}" for v, w in self._photo_warnings.items() if v in s.photos]
+            + [f"{v}: downscaled from {p.original_width}×{p.original_height} to "
+               f"{p.width}×{p.height} px" for v, p in s.photos.items() if p.downscaled])
           or ("JPEG or PNG; EXIF removed on upload." if len(s.photos) < 4 else ""))
+        S(self.intake_md, "content", f"Four photos loaded · case **{s.case_id}**" + "".join(
+            f"  \n⚠ {w}" for v, w in self._photo_warnings.items() if v in s.photos))
 
     def _panel_target(self, t: tuple[str, str] | None) -> None:
         """What to click next, with its description and diagram (or why nothing)."""
@@ -811,8 +839,8 @@ class AnnotatePage:
             return
         v, lid = t
         where = "" if v == self.view else f" (in the {v} photo)"
-        self._set(self.target_md, "content", f"### Click **{LANDMARKS[lid].paper}**{where}\n"
-                                             f"{describe(lid, v)}")
+        self._set(self.target_md, "content", f"### Click **{display_name(lid)}**{where}\n"
+                                             f"{definition(lid, v)}")
         img = self.diagrams.get(v, lid)
         if img is None:
             self._set(self.diagram, "visible", False)
@@ -825,11 +853,16 @@ class AnnotatePage:
     def _panel_marks(self, s: AnnotationSession, t: tuple[str, str] | None) -> None:
         """The landmark list of this photo (done / skipped / to do), Undo and Skip."""
         marks = {"placed": "✓", "skipped": "–", "todo": "·"}
-        opts = tuple(f"{marks[s.status(self.view, i)]} {i}" for i in CLICK_ORDER[self.view])
-        self._set(self.pick, "options", opts)
-        if t is not None and t[0] == self.view:
-            self._set(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])])
+        opts = tuple(f"{marks[s.status(self.view, i)]} {display_name(i)}"
+                     for i in CLICK_ORDER[self.view])
+        self._set(self.pick, "options", (PICK_NONE, *opts))
+        # the entry shown is the landmark being clicked in this photo, else none: an
+        # entry shown is never stale, so choosing any landmark is a change the page sees
+        self._set(self.pick, "value", opts[CLICK_ORDER[self.view].index(t[1])]
+                  if t is not None and t[0] == self.view else PICK_NONE)
         self._set(self.undo_btn, "disabled", not s.can_undo)
+        self._set(self.accept_btn, "disabled", t is None or t[0] != self.view
+                  or t[1] not in self._last_pred)
         self._set(self.skip_btn, "disabled", t is None)
 
     def _panel_hints(self) -> None:
@@ -847,8 +880,10 @@ class AnnotatePage:
         """The Reconstruct button, enabled once nothing is missing, and what is."""
         probs = s.problems()
         self._set(self.rec_btn, "disabled", bool(probs))
-        self._set(self.problems_md, "content", "Ready." if not probs else
-                  "To do:  \n" + "  \n".join(f"- {p}" for p in probs[:6]))
+        text = "Ready." if not probs else "To do:  \n" + "  \n".join(
+            f"- {p}" for p in probs[:6])
+        text += "".join(f"  \n⚠ {c}" for c in s.cautions())
+        self._set(self.problems_md, "content", text)
 
     def _panel_views(self, s: AnnotationSession) -> None:
         """The photo buttons with each photo's progress; the landmark folder."""
@@ -895,9 +930,36 @@ class AnnotatePage:
             return
         s.place(v, lid, uv)
         self.events.append((time.monotonic(), f"place {v} {lid}"))
+        chosen = self.override is not None
         self.override = None
         self.show_error(None)
-        self._after_change()
+        self._after_change(stay=chosen)
+
+    def _predicted(self) -> dict[str, np.ndarray]:
+        """id -> (2,) px: where the landmarks not clicked in this photo probably are
+        (:func:`naseview.intake.predict.predict_next`: the guidance reprojection, else
+        the template fit of the clicks so far)."""
+        s = self.session
+        if s is None or self.view not in s.photos:
+            return {}
+        clicks = s.clicks[self.view]
+        g = self.guidance
+        pred = predict_next(self.view, s.clicks,
+                            g.hints(self.view, set(clicks)) if g is not None else None)
+        plane = self.plane
+        if plane is None:
+            return pred
+        return {i: p for i, p in pred.items() if plane.inside(p)}
+
+    def _accept(self) -> None:
+        """Place the landmark being clicked on its pre-placed marker (one click)."""
+        t = self._current_target()
+        if t is None or t[0] != self.view:
+            return
+        p = self._predicted().get(t[1])
+        if p is None:
+            return
+        self._place_click(self.view, np.asarray(p, np.float64))
 
     def _skip(self) -> None:
         s = self.session
@@ -906,8 +968,9 @@ class AnnotatePage:
             return
         s.skip(*t)
         self.events.append((time.monotonic(), f"skip {t[0]} {t[1]}"))
+        chosen = self.override is not None
         self.override = None
-        self._after_change()
+        self._after_change(stay=chosen)
 
     def _undo(self) -> None:
         s = self.session
@@ -925,22 +988,25 @@ class AnnotatePage:
     def _on_pick(self, value: str) -> None:
         """The user chose a landmark in the list: it becomes the target; its old click
         stays until the new one is placed (undo restores it)."""
-        lid = value.split(" ", 1)[-1]
+        name = value.split(" ", 1)[-1]
         self._sent.pop((id(self.pick), "value"), None)  # the browser changed it
 
         def pick() -> None:
-            t = self.target
-            if lid in CLICK_ORDER[self.view] and (t is None or t[1] != lid):
-                self.override = lid
-                self._redraw()
+            lid = next((i for i in CLICK_ORDER[self.view] if display_name(i) == name), None)
+            if lid is not None and self.target != (self.view, lid):
+                self.override = lid      # also when the guided target is the same id in
+                self._redraw()           # another photo (g, n... are in several)
         self.submit(pick)
 
-    def _after_change(self) -> None:
+    def _after_change(self, stay: bool = False) -> None:
+        """Redraw after a click, skip or undo; once the guided flow finishes a photo,
+        go on to the next one, unless ``stay`` (a landmark the user chose was clicked
+        again: the page stays on its photo until the user moves on)."""
         s = self.session
         assert s is not None
         self.show_error(None)
         nxt = s.next_target(self.view)
-        if nxt is not None and nxt[0] != self.view and self.override is None:
+        if nxt is not None and nxt[0] != self.view and self.override is None and not stay:
             done_view = self.view
             self.set_view(nxt[0], fit=True)
             self.notify(f"{done_view.capitalize()} photo done",

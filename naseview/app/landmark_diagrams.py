@@ -14,11 +14,11 @@ import threading
 import cv2
 import numpy as np
 
+from naseview.app.landmark_names import display_name
 from naseview.camera import orbit_camera
 from naseview.facemodel import FaceModel, load_face_model
 from naseview.geometry.closing import cap_holes
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
-from naseview.landmarks import LANDMARKS
 from naseview.render import render_mesh
 
 log = logging.getLogger(__name__)
@@ -120,7 +120,7 @@ class LandmarkDiagrams:
             cv2.circle(out, q, 11, (255, 255, 255), 3, cv2.LINE_AA)
             cv2.circle(out, q, 11, (30, 30, 220), 1, cv2.LINE_AA)
             cv2.circle(out, q, 4, (30, 30, 220), -1, cv2.LINE_AA)
-        label = LANDMARKS[landmark].paper
+        label = display_name(landmark)
         cv2.putText(out, label, (6, self.size - 8), cv2.FONT_HERSHEY_SIMPLEX, 0.6,
                     (30, 30, 220), 2, cv2.LINE_AA)
         return np.ascontiguousarray(out[:, :, ::-1])

@@ -86,7 +86,19 @@ def describe(landmark_id: str, view: str | None = None) -> str:
     """One line for the page: paper name, SPEC id, soft-tissue definition and, for the
     front and bottom photos, on which side of the image a left/right landmark lies."""
     lm = LANDMARKS[landmark_id]
-    text = f"{lm.paper} ({lm.id}): {lm.description}"
+    return f"{lm.paper} ({lm.id}): {definition(landmark_id, view)}"
+
+
+def definition(landmark_id: str, view: str | None = None) -> str:
+    """The soft-tissue definition of a landmark and, for the front and bottom photos, on
+    which side of the image a left/right landmark lies (:func:`describe` without the
+    paper's abbreviation and the id, for a page that names landmarks its own way).
+
+    >>> definition("alpp_r", "bottom")[-15:]
+    'image left side'
+    """
+    lm = LANDMARKS[landmark_id]
+    text = lm.description
     if view in ("front", "bottom") and lm.side in ("l", "r"):
         text += "; image " + ("right" if lm.side == "l" else "left") + " side"
     if lm.helper:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import os
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -158,11 +159,27 @@ def _adjust(case: Case) -> SfmResult | Guidance:
     try:
         return bundle_adjust(case)
     except NaseviewError as e:
-        msg = str(e).split(": key ", 1)[-1]
-        return Guidance(message=f"No hints yet: {msg}")
+        return Guidance(message=f"No hints yet: {plain_words(str(e))}")
     except Exception as e:  # a partial case the solver does not support: no hints
         log.debug("naseview: guidance failed: %r", e)
         return Guidance(message="No hints yet (the clicks so far cannot be reconstructed).")
+
+
+def plain_words(message: str) -> str:
+    """A stage-1 error in the page's words: without the file and the ``case.json`` key
+    (a surgeon clicking photos has neither), photos named as the page names them.
+
+    >>> plain_words("/w/case.json: key 'views.front.landmarks': only 5 landmark clicks in "
+    ...             "photo 'front'; click at least 6")
+    'only 5 landmark clicks in the front photo; click at least 6'
+    """
+    msg = message.split(": key ", 1)[-1]
+    msg = re.sub(r"^'[^']*':\s*", "", msg)
+    msg = re.sub(r"photos? '(\w+)' and '(\w+)'", r"the \1 and \2 photos", msg)
+    msg = re.sub(r"photo '(\w+)'", r"the \1 photo", msg)
+    msg = re.sub(r"the photos of '(\w+)' and '(\w+)'", r"the \1 and \2 photos", msg)
+    msg = msg.replace(" in case.json", "").replace("case.json", "the case")
+    return msg
 
 
 def _place_cameras(res: SfmResult, lm_clicks: Clicks, sizes: dict[str, tuple[int, int]]

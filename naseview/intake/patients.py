@@ -284,23 +284,36 @@ class PatientFolders:
         :meth:`check_id`); nothing changes otherwise."""
         session.set_case_id(self.check_id(case_id, session))
 
-    def new_session(self, case_id: str | None = None) -> AnnotationSession:
+    def new_session(self, case_id: str | None = None, lazy: bool = False
+                    ) -> AnnotationSession:
         """A new patient in a fresh folder ``WORK/in-progress/<id>`` (``<id>-2``... when
         that name is in use; the folder is created exclusively).
 
         Args:
             case_id: the id; ``None`` for :func:`default_case_id` (made unique with
                 ``-2``, ``-3``... when another patient has it).
+            lazy: create the folder only on the patient's first real input (a photo, a
+                distance: :meth:`AnnotationSession.pending`), so that opening the page
+                and leaving leaves nothing behind.
         Raises:
             NaseviewError: ``case_id`` is given and another patient has it.
         """
-        if case_id is not None:
-            cid = self.check_id(case_id)
-        else:
-            base = default_case_id()
-            cid, k = base, 2
-            while self.holder(cid) is not None:
-                cid, k = f"{base}-{k}", k + 1
+        cid = self.check_id(case_id) if case_id is not None else self._free_default_id()
+        if lazy:
+            return AnnotationSession.pending(self.in_progress / cid, cid,
+                                             self._make_folder)
+        return AnnotationSession.create(self._make_folder(cid), cid)
+
+    def _free_default_id(self) -> str:
+        """:func:`default_case_id`, with ``-2``, ``-3``... when another patient has it."""
+        base = default_case_id()
+        cid, k = base, 2
+        while self.holder(cid) is not None:
+            cid, k = f"{base}-{k}", k + 1
+        return cid
+
+    def _make_folder(self, cid: str) -> Path:
+        """Create ``WORK/in-progress/<cid>`` (``<cid>-2``... when taken) exclusively."""
         try:
             self.in_progress.mkdir(parents=True, exist_ok=True)
         except OSError as e:
@@ -317,7 +330,7 @@ class PatientFolders:
                 raise NaseviewError(f"{folder}: cannot create the folder ({one_line(e)}); "
                                     "choose a writable work folder (NASEVIEW_WORK_DIR)"
                                     ) from None
-            return AnnotationSession.create(folder, cid)
+            return folder
         raise NaseviewError(f"{self.in_progress}: too many folders named {cid!r}")
 
     def find(self, case_id: str) -> ExistingPatient | None:

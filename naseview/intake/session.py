@@ -142,6 +142,7 @@ class AnnotationSession:
 
     def __init__(self, folder: str | os.PathLike[str], case_id: str = "") -> None:
         self.folder = Path(folder)
+        self._make_folder: Callable[[str], Path] | None = None
         self._lock = threading.RLock()
         self._images: dict[str, np.ndarray] = {}
         now = _now()
@@ -205,6 +206,33 @@ class AnnotationSession:
         return s
 
     @classmethod
+    def pending(cls, folder: str | os.PathLike[str], case_id: str,
+                make_folder: Callable[[str], Path]) -> AnnotationSession:
+        """A new patient whose folder does not exist yet: ``make_folder(case_id)`` creates
+        it (and returns it) on the first real input, a photo or a distance
+        (:meth:`has_input`); until then nothing is written, and a page opened and left
+        leaves no empty patient behind. ``folder`` is where it is expected."""
+        s = cls(folder, case_id)
+        s._make_folder = make_folder
+        return s
+
+    def has_input(self) -> bool:
+        """Whether the patient holds anything worth keeping (photos, distances, clicks)."""
+        return bool(self.photos or self.scale_mm or any(self.clicks.values()))
+
+    @property
+    def on_disk(self) -> bool:
+        """Whether the in-progress folder exists (False for a :meth:`pending` patient
+        without input yet)."""
+        return self._make_folder is None
+
+    def _materialize(self) -> None:
+        """Create the folder of a :meth:`pending` patient (under the lock)."""
+        if self._make_folder is not None:
+            self.folder = self._make_folder(self.case_id)
+            self._make_folder = None
+
+    @classmethod
     def open(cls, folder: str | os.PathLike[str]) -> AnnotationSession:
         """Resume the annotation autosaved in ``folder``; leftovers of an interrupted
         write (temporary files, a photo no longer referenced) are removed.
@@ -239,8 +267,13 @@ class AnnotationSession:
         return annotation_json(self._state(), self.folder)
 
     def save(self) -> Path:
-        """Write ``annotation.json`` atomically (called after every change)."""
+        """Write ``annotation.json`` atomically (called after every change); a
+        :meth:`pending` patient gets its folder with its first input (nothing before)."""
         with self._lock:
+            if self._make_folder is not None:
+                if not self.has_input():
+                    return self.folder / ANNOTATION_FILE
+                self._materialize()
             return atomic_write_json(self.folder / ANNOTATION_FILE, self.to_json())
 
     # photos
@@ -274,6 +307,7 @@ class AnnotationSession:
         kind = "png" if photo_kind(data) == "png" else "jpeg"
         encoded = encode_photo(img, kind)
         with self._lock:
+            self._materialize()
             file = self._new_photo_name(view, ".png" if kind == "png" else ".jpg")
             old = self.photos.get(view)
             try:
@@ -542,10 +576,22 @@ class AnnotationSession:
                 for (a, b), d in self.scale_mm.items()                    # entry it is about
                 if a in TEMPLATE_MM and b in TEMPLATE_MM and not plausible_distance(a, b, d)]
         out += self._too_few_clicks()
-        if sum(1 for v in VIEWS if "g" in self.clicks[v]) < 2 and not self.missing_photos():
-            out.append("click glabella g in at least two photos (front and a profile)")
+        if not self.missing_photos() and not any("g" in self.clicks[v] for v in VIEWS):
+            out.append("click glabella g (the origin of the 3D frame) in the front photo "
+                       "and in a profile photo")
         out += self._unclicked_scale_ends()
         return out
+
+    def cautions(self) -> list[str]:
+        """What reconstructs but less well, one line each (blocks nothing; the command
+        line warns of the same): glabella clicked in one photo only is placed from that
+        photo and the face model, uncertain by a few mm."""
+        seen = [v for v in VIEW_ORDER if "g" in self.clicks[v]]
+        if len(seen) == 1 and not self.missing_photos():
+            other = "a profile photo" if seen[0] == "front" else "the front photo"
+            return [f"glabella (g) is clicked in the {seen[0]} photo only: click it in "
+                    f"{other} too if it shows there, else its depth is an estimate"]
+        return []
 
     def _too_few_clicks(self) -> list[str]:
         """Photos with fewer than :data:`HINT_MIN_CLICKS` landmark clicks (stage 1 needs

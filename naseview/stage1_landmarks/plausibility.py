@@ -109,6 +109,17 @@ def resolution_warnings(cameras: dict[str, Camera], landmarks: dict[str, np.ndar
             v for v, r in low.items() if r < 0.5 * params.min_px_per_mm)
 
 
+def slot_message(view: str, looks_like: str, why: str) -> str:
+    """The one line for a photo that does not look like its slot (here after stage 1,
+    and at upload by :mod:`naseview.intake.photo_check`).
+
+    >>> slot_message("bottom", "a profile", "not symmetric")[:60]
+    "the 'bottom' photo looks like a profile (not symmetric): che"
+    """
+    return (f"the {view!r} photo looks like {looks_like} ({why}): check that each photo "
+            "is in its slot")
+
+
 def view_warnings(cameras: dict[str, Camera], params: SfmParams,
                   unreliable: frozenset[str] = frozenset()) -> list[str]:
     """Photos that look like another view's photo (swapped), and photos rolled by about
@@ -131,9 +142,8 @@ def view_warnings(cameras: dict[str, Camera], params: SfmParams,
             out.append(f"the {v!r} photo looks like a {u!r} photo and the {u!r} photo like "
                        f"a {v!r} photo: swap them (photos and clicks)")
         else:
-            out.append(f"the {v!r} photo looks like a {u!r} photo "
-                       f"({viewing_angle_deg(cameras[v], v, elev):.0f} deg from a {v!r} "
-                       "view): check that each photo is in its slot")
+            angle = viewing_angle_deg(cameras[v], v, elev)
+            out.append(slot_message(v, f"a {u!r} photo", f"{angle:.0f} deg from a {v!r} view"))
     for v, cam in cameras.items():
         roll = None if v in unreliable else roll_deg(cam)
         if roll is None or abs(roll) <= params.max_roll_deg:

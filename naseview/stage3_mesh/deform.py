@@ -241,8 +241,9 @@ class NoseDeformer:
         folded = self.face_ids[dots <= 0]
         if not len(folded):
             return folded, []
-        return folded, [f"stage 3: {len(folded)} triangle(s) of the nose folded over; "
-                        "move the handles less or check the landmarks"]
+        return folded, [f"stage 3: {len(folded)} triangle(s) of the nose folded over "
+                        "where the landmarks pull the surface; check the landmark clicks "
+                        "there"]
 
     def solve_report(self, handle_positions: np.ndarray, warm_start: bool = True,
                      params: RefineParams | None = None) -> DeformReport:

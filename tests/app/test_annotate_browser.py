@@ -30,6 +30,7 @@ from helpers import CHROMIUM, CHROMIUM_FLAGS, bomb_png, browser_or_skip, wait_fo
 from viser import transforms as vtf
 
 from naseview.app.guard import guarded_viser_server
+from naseview.app.landmark_names import display_name
 from naseview.app.serve import NaseviewApp
 from naseview.case import read_case
 from naseview.facemodel import load_face_model
@@ -122,7 +123,8 @@ def test_new_patient_clicked_in_the_browser_reconstructs_the_truth(
                     view, lid = target
                     if not seen_views or seen_views[-1] != view:
                         seen_views.append(view)      # the page names the target: read it
-                        page.get_by_text(f"({lid}):").first.wait_for(timeout=10_000)
+                        page.get_by_text(display_name(lid), exact=True).first.wait_for(
+                            timeout=10_000)
                     done = page_obj.session.progress()[0]
                     truth_xy = case.views[view].landmarks.get(lid)
                     if truth_xy is None:               # not visible in this photo
