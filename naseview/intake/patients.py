@@ -46,6 +46,7 @@ from __future__ import annotations
 import os
 import re
 import stat
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -113,6 +114,11 @@ class ExistingPatient:
     case_id: str
     annotation: Path | None
     case_dir: Path | None
+
+
+_ISSUED: set[str] = set()
+"""Default ids this process has given out (a lazy session's folder may not exist yet)."""
+_ISSUED_LOCK = threading.Lock()
 
 
 class PatientFolders:
@@ -305,11 +311,15 @@ class PatientFolders:
         return AnnotationSession.create(self._make_folder(cid), cid)
 
     def _free_default_id(self) -> str:
-        """:func:`default_case_id`, with ``-2``, ``-3``... when another patient has it."""
+        """:func:`default_case_id`, with ``-2``, ``-3``... when another patient has it or
+        this process gave it out already (two tabs opening the new-patient page in the
+        same second: their lazy sessions have no folder yet to tell them apart)."""
         base = default_case_id()
         cid, k = base, 2
-        while self.holder(cid) is not None:
-            cid, k = f"{base}-{k}", k + 1
+        with _ISSUED_LOCK:
+            while self.holder(cid) is not None or cid in _ISSUED:
+                cid, k = f"{base}-{k}", k + 1
+            _ISSUED.add(cid)
         return cid
 
     def _make_folder(self, cid: str) -> Path:
