@@ -10,14 +10,18 @@ from typing import Any
 
 import pytest
 import viser
-from helpers import GaussianSolver, ict_baseline
+from helpers import GaussianSolver, ict_baseline, wait_for
+from setup_cache import cached_skin_texture
 
+import naseview.app.face_look
+import naseview.report.sources
 from naseview.app.guard import guarded_viser_server
 from naseview.app.serve import NaseviewApp, demo_case_dir, start_app
 from naseview.editing.baseline import Baseline
 from naseview.editing.solver import NoseEditSolver
 
 REPO = Path(__file__).resolve().parents[1]
+collect_ignore = ["subprocess_hook"]  # a subprocess's sitecustomize, not for --doctest-modules
 SHARED_ICT = REPO.parent / "shared" / "data" / "ict-face-model"
 
 # Point naseview at the shared ICT model unless the caller chose one.
@@ -58,14 +62,45 @@ def real_solver_factory(baseline: Baseline) -> Callable[[], NoseEditSolver]:
     return lambda: NoseEditSolver(baseline)
 
 
-@pytest.fixture(scope="module")
-def served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
-    """``naseview serve`` of the demo case (photos, mesh, landmarks), as the CLI starts it."""
+@pytest.fixture(scope="session", autouse=True)
+def bake_once() -> Iterator[None]:
+    """The app's and the report's texture bake (``skin_texture``) runs once per version of
+    the code and set of inputs (``setup_cache.cached_skin_texture``), not in every test
+    that opens the same reconstruction with the same photos (a bake takes seconds)."""
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(naseview.app.face_look, "skin_texture", cached_skin_texture)
+        mp.setattr(naseview.report.sources, "skin_texture", cached_skin_texture)
+        yield
+
+
+@pytest.fixture(scope="session")
+def demo_served() -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
+    """``naseview serve`` of the demo case (photos, mesh, landmarks), as the CLI starts it,
+    once per test session; tests take it through ``served``."""
     server, app = start_app(demo_case_dir(), host="127.0.0.1", port=0, model="generic")
     assert app.wait_ready(120), "the demo case did not open"
     yield server, app
     app.close()
     server.stop()
+
+
+def _demo_unchanged(app: NaseviewApp) -> None:
+    """Assert that the shared demo app is as it opened: its tabs gone, no edit."""
+    wait_for(lambda: not app.screens, 30, "the previous test's tabs to go")
+    ctl = app.controller
+    assert ctl is not None and ctl.wait_idle(30)
+    assert ctl.history_length == 1 and not ctl.is_edited(), (
+        "a test edited the shared demo app (served); give it a fresh app")
+
+
+@pytest.fixture()
+def served(demo_served: tuple[viser.ViserServer, NaseviewApp]
+           ) -> Iterator[tuple[viser.ViserServer, NaseviewApp]]:
+    """``(server, app)``: the demo case served (``demo_served``), shared by the tests that
+    only read it: each starts with no tab open and no edit, and must leave it so."""
+    _demo_unchanged(demo_served[1])
+    yield demo_served
+    _demo_unchanged(demo_served[1])
 
 
 @pytest.fixture(scope="module")
