@@ -34,6 +34,40 @@ if (SHARED_ICT / "ict_face_light.npz").is_file():
 os.environ["NASEVIEW_WORK_DIR"] = tempfile.mkdtemp(prefix="naseview-test-work-")
 
 
+BROWSER_FILES = "*_browser.py"
+"""Where the browser tests are (marked ``browser``), and only they."""
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The browser test files first (together they take the longest), the rest in their
+    order: xdist hands its work out in this order (``--no-loadscope-reorder``), so the
+    short files at the end even the workers out."""
+    for item in items:
+        if bool(item.get_closest_marker("browser")) != item.path.match(BROWSER_FILES):
+            raise pytest.UsageError(f"{item.nodeid}: browser tests (marked 'browser') "
+                                    f"live in files named {BROWSER_FILES}, and only they")
+    items.sort(key=lambda item: not item.path.match(BROWSER_FILES))
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    """``--dist loadfile`` (pyproject's addopts): xdist's workers take whole test files
+    (a file's module fixtures are made once), except that the browser test files are one
+    unit: they run one after another on one worker while the others run the rest. Each
+    holds a Chromium rendering the scene in software (about a core of its own); two at
+    once slow each other and the other workers down more than they gain."""
+    if config.getvalue("dist") != "loadfile":
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    class BrowserFilesTogether(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            file = super()._split_scope(nodeid)
+            return "browser tests" if Path(file).match(BROWSER_FILES) else file
+
+    return BrowserFilesTogether(config, log)
+
+
 @pytest.fixture(scope="session")
 def ict_dir() -> Path:
     """``../shared/data/ict-face-model`` (fails loudly if absent: CI must provide it)."""
