@@ -7,10 +7,12 @@ import functools
 import importlib.util
 import math
 import os
+import shutil
 import signal
 import struct
 import subprocess
 import sys
+import tempfile
 import time
 import zlib
 from collections.abc import Callable, Iterator, Mapping
@@ -21,6 +23,7 @@ from typing import Any
 import cv2
 import numpy as np
 import pytest
+import setup_cache
 
 from naseview.app.viewer import DEFAULT_VIEW, view_pose
 from naseview.camera import Camera, look_at
@@ -69,12 +72,14 @@ def wait_for_placed_camera(client: Any, baseline: Baseline, timeout: float = 30.
 def naseview_serve(args: list[str], env: Mapping[str, str] | None = None
                    ) -> Iterator[list[str]]:
     """``python -m naseview serve ARGS`` in a subprocess (from the repository, environment
-    ``os.environ`` + ``env``), read until it says it is ready ("press Ctrl-C"); yields its
-    output lines so far (the server still running), then stops it with Ctrl-C (SIGINT),
-    reading the rest of its output so it never blocks on a full pipe, and asserts a clean
-    exit 0."""
+    ``os.environ`` + ``env``; its texture bakes through the tests' cache,
+    :func:`setup_cache.subprocess_env`), read until it says it is ready ("press Ctrl-C");
+    yields its output lines so far (the server still running), then stops it with Ctrl-C
+    (SIGINT), reading the rest of its output so it never blocks on a full pipe, and
+    asserts a clean exit 0."""
     proc = subprocess.Popen([sys.executable, "-m", "naseview", "serve", *args], cwd=REPO,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})},
+                            env={**os.environ, "PYTHONUNBUFFERED": "1",
+                                 **setup_cache.subprocess_env(), **(env or {})},
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines: list[str] = []
     try:
@@ -164,18 +169,22 @@ def _ict_model() -> FaceModel:
 @functools.cache
 def demo_output_dir() -> Path:
     """The bundled demo case reconstructed by ``naseview reconstruct`` (default face
-    model) into a fresh temporary folder, once per test process (removed at exit)."""
-    import atexit
-    import shutil
-    import tempfile
-
-    root = Path(tempfile.mkdtemp(prefix="naseview-demo-"))
-    atexit.register(shutil.rmtree, root, ignore_errors=True)
-    out = root / "out"
-    subprocess.run([sys.executable, "-m", "naseview", "reconstruct",
-                    str(REPO / "assets" / "demo-case"), "-o", str(out)],
-                   check=True, capture_output=True)
-    return out
+    model), made once per version of the code and shared by every test process (xdist's
+    workers too: :mod:`setup_cache`). Read only: a test writes nothing into it (its
+    face.ply and nose.ply are checked against the SHA-256 in reconstruction.json when
+    read)."""
+    assert os.environ.get("NASEVIEW_ICT_MODEL"), "conftest sets NASEVIEW_ICT_MODEL"
+    cache = setup_cache.cache_dir()
+    done = cache / "demo-output"
+    with setup_cache.file_lock(cache / "demo-output.lock"):
+        if not (done / "out" / "reconstruction.json").is_file():
+            work = Path(tempfile.mkdtemp(prefix="demo-output-", dir=cache))
+            subprocess.run([sys.executable, "-m", "naseview", "reconstruct",
+                            str(REPO / "assets" / "demo-case"), "-o", str(work / "out")],
+                           check=True, capture_output=True, cwd=REPO)
+            shutil.rmtree(done, ignore_errors=True)
+            work.rename(done)      # same depth: the stored relative case_dir stays right
+    return done / "out"
 
 
 def ict_baseline() -> Baseline:
