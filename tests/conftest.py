@@ -9,9 +9,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import setup_cache
 import viser
 from helpers import GaussianSolver, ict_baseline, wait_for
-from setup_cache import cached_skin_texture
 
 import naseview.app.face_look
 import naseview.report.sources
@@ -100,10 +100,13 @@ def real_solver_factory(baseline: Baseline) -> Callable[[], NoseEditSolver]:
 def bake_once() -> Iterator[None]:
     """The app's and the report's texture bake (``skin_texture``) runs once per version of
     the code and set of inputs (``setup_cache.cached_skin_texture``), not in every test
-    that opens the same reconstruction with the same photos (a bake takes seconds)."""
+    that opens the same reconstruction with the same photos (a bake takes seconds). The
+    cache's key is taken here, before any test changes the environment."""
+    setup_cache.cache_dir()
     with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(naseview.app.face_look, "skin_texture", cached_skin_texture)
-        mp.setattr(naseview.report.sources, "skin_texture", cached_skin_texture)
+        mp.setattr(naseview.app.face_look, "skin_texture", setup_cache.cached_skin_texture)
+        mp.setattr(naseview.report.sources, "skin_texture",
+                   setup_cache.cached_skin_texture)
         yield
 
 

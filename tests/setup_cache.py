@@ -2,9 +2,10 @@
 workers, the servers a test starts) through a cache on disk.
 
 A cached item is keyed by everything that makes it: the sources and data of naseview,
-the demo case, the face model file, the numeric libraries' versions and this checkout's
-path (an output folder names its case relative to itself), so a test still sees what
-the code makes today. The cache lives in the system's temporary folder
+the demo case, the face model file, naseview's environment variables, the numeric
+libraries' versions, this file and ``helpers.py`` (the commands that make the items) and
+this checkout's path (an output folder names its case relative to itself), so a test
+still sees what the code makes today. The cache lives in the system's temporary folder
 (``<tmp>/naseview-test-cache/<key>``), never in the repository.
 
 Only the standard library and numpy are imported here: ``subprocess_hook/sitecustomize.py``
@@ -48,8 +49,12 @@ def code_key() -> str:
             h.update(f"{dist} {version(dist)}\n".encode())
         except PackageNotFoundError:            # not installed under that name
             h.update(f"{dist} ?\n".encode())
+    for k in sorted(os.environ):
+        if k.startswith("NASEVIEW_") and k not in ("NASEVIEW_WORK_DIR", BAKE_CACHE_ENV):
+            h.update(f"{k}={os.environ[k]}\n".encode())
     files = [f for d in (REPO / "naseview", REPO / "assets") for f in sorted(d.rglob("*"))
              if f.is_file() and "__pycache__" not in f.parts]
+    files += [Path(__file__).resolve(), Path(__file__).resolve().parent / "helpers.py"]
     model = os.environ.get("NASEVIEW_ICT_MODEL")
     if model and Path(model).is_file():
         files.append(Path(model))
