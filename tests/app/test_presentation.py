@@ -1,0 +1,66 @@
+"""Issue 27 item 6 (presentation): the scale bar beside the face, in the view PNG."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from naseview.app.viewer import (
+    SCALE_BAR_MM,
+    VIEW_BUTTONS,
+    scale_bar_pixels,
+    scale_bar_segments,
+    view_camera,
+)
+from naseview.editing.baseline import Baseline
+from naseview.render import rasterize
+
+VIEWS = [v for _, v in VIEW_BUTTONS]
+
+
+@pytest.mark.parametrize("aspect", [16 / 9, 2.0])
+@pytest.mark.parametrize("view", VIEWS)
+def test_scale_bar_lies_beside_the_face_in_every_standard_view(baseline: Baseline, view,
+                                                               aspect):
+    """Every pixel along the bar (and its ticks) is off the face's projected outline,
+    in view, and the bar is 10 mm long at the nose's depth (issue 27: half buried in the
+    cheek in the Base view)."""
+    V, F = baseline.V, baseline.F
+    cam = view_camera(V, baseline.nose_ids, view, aspect)
+    segs, label = scale_bar_segments(V, F, baseline.nose_ids, cam)
+    assert abs(np.linalg.norm(segs[0, 1] - segs[0, 0]) - SCALE_BAR_MM) < 1e-6
+    face = np.isfinite(rasterize(V, F, cam).depth)
+    px = scale_bar_pixels(segs, cam)
+    assert_outside(face, px, label, cam, view)
+
+
+def assert_outside(face, px, label, cam, view):
+    pts = np.concatenate([a + np.linspace(0, 1, 50)[:, None] * (b - a) for a, b in px])
+    assert (pts[:, 0] >= 0).all() and (pts[:, 0] < cam.width).all(), (view, px)
+    assert (pts[:, 1] >= 0).all() and (pts[:, 1] < cam.height).all(), (view, px)
+    cols = np.clip(np.round(pts[:, 0]).astype(int), 0, cam.width - 1)
+    rows = np.clip(np.round(pts[:, 1]).astype(int), 0, cam.height - 1)
+    assert not face[rows, cols].any(), f"{view}: the scale bar crosses the face"
+    lab = cam.project(label[None])[0]
+    assert not face[int(round(lab[1])), int(round(lab[0]))], f"{view}: label on the face"
+    # upright in the picture: the bar's two ends share their x
+    assert abs(px[0, 0, 0] - px[0, 1, 0]) < 1.0
+
+
+def test_front_view_in_a_narrow_window_keeps_the_bar_in_view_and_true(baseline: Baseline):
+    """A 4:3 Front view framed on the nose is all face: the bar stays in the picture (lower
+    right corner), in front of the face (never buried) and shows 10 mm at the nose's
+    depth."""
+    V, F = baseline.V, baseline.F
+    cam = view_camera(V, baseline.nose_ids, "front", 4 / 3)
+    segs, _ = scale_bar_segments(V, F, baseline.nose_ids, cam)
+    px = scale_bar_pixels(segs, cam)
+    assert (px[..., 0] > cam.width / 2).all() and (px[..., 0] < cam.width).all()
+    assert (px[..., 1] > cam.height / 2).all() and (px[..., 1] < cam.height).all()
+    P = baseline.V[baseline.nose_ids]
+    z = cam.depth((0.5 * (P.min(0) + P.max(0)))[None])[0]
+    shown_mm = np.linalg.norm(px[0, 1] - px[0, 0]) * z / cam.K[1, 1]
+    assert abs(shown_mm - SCALE_BAR_MM) < 0.05
+    depth = rasterize(V, F, cam).depth
+    r, c = int(px[0, 0, 1]), int(px[0, 0, 0])
+    assert cam.depth(segs[0, :1])[0] < depth[max(r - 3, 0):r + 3, c - 3:c + 3].min()
