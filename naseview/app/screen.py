@@ -411,7 +411,8 @@ class Screen:
 
         def job() -> None:
             try:
-                data = view_png(V, F, cam, look.texture if look is not None else None)
+                data = view_png(V, F, cam, look.texture if look is not None else None,
+                                nose_ids=ctl.baseline.nose_ids)
                 target.send_file_download(name, data, save_immediately=True)
             except Exception as e:
                 log.exception("naseview: view PNG failed")

@@ -180,10 +180,39 @@ def camera_of_view(position: ArrayLike, target: ArrayLike, up: ArrayLike, fov: f
     return look_at(position, target, up, focal, w, h)
 
 
+PNG_SCALE_BAR_BGR = (40, 40, 40)
+"""Colour of the scale bar drawn into a view PNG (the scene's)."""
+
+
+def draw_scale_bar(img: np.ndarray, V: ArrayLike, F: ArrayLike, nose_ids: ArrayLike,
+                   camera: Camera, length_mm: float = SCALE_BAR_MM) -> np.ndarray:
+    """(3, 2, 2) pixels of the segments of the scale bar drawn into ``img`` (BGR, the
+    picture of ``camera``): :func:`scale_bar_segments` placed for this camera (beside the
+    face), so it is ``length_mm`` long at the nose's depth, with its "10 mm" label."""
+    segs, label = scale_bar_segments(V, F, nose_ids, camera, length_mm)
+    px = scale_bar_pixels(segs, camera)
+    thick = max(2, int(round(img.shape[0] / 300)))
+    for a, b in px:
+        cv2.line(img, (int(round(a[0])), int(round(a[1]))), (int(round(b[0])), int(round(b[1]))),
+                 PNG_SCALE_BAR_BGR, thick, cv2.LINE_AA)
+    text = f"{length_mm:g} mm"
+    scale = img.shape[0] / 900 * 0.8
+    (tw, th), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, scale, thick)
+    lab = camera.project(np.asarray(label, np.float64)[None])[0]
+    left = lab[0] < px[0, 0, 0]
+    x = int(round(lab[0] - tw if left else lab[0]))
+    y = int(round(lab[1] + th / 2))
+    cv2.putText(img, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, scale, PNG_SCALE_BAR_BGR, thick,
+                cv2.LINE_AA)
+    return px
+
+
 def view_png(V: ArrayLike, F: ArrayLike, camera: Camera,
-             texture: FaceTexture | None = None) -> bytes:
+             texture: FaceTexture | None = None,
+             nose_ids: ArrayLike | None = None) -> bytes:
     """PNG bytes of the face ``V`` (n, 3) mm, ``F`` through ``camera`` (textured when
-    ``texture`` is given, else skin-coloured), white background."""
+    ``texture`` is given, else skin-coloured), white background; with ``nose_ids`` the
+    10 mm scale bar beside the face (:func:`draw_scale_bar`)."""
     V = np.asarray(V, np.float64)
     if texture is not None and len(texture.uv) != len(V):
         raise NaseviewError("view PNG: the texture was baked for another mesh; reopen the "
@@ -192,7 +221,10 @@ def view_png(V: ArrayLike, F: ArrayLike, camera: Camera,
     img = render_textured(V, F, camera, texture=texture,
                           vertex_colors=None if texture is not None else skin,
                           shading=0.35 if texture is not None else 0.8)
-    return image_bytes(np.ascontiguousarray(img[:, :, ::-1]), ".png", where="view PNG")
+    bgr = np.ascontiguousarray(img[:, :, ::-1])
+    if nose_ids is not None and len(np.asarray(nose_ids)):
+        draw_scale_bar(bgr, V, F, nose_ids, camera)
+    return image_bytes(bgr, ".png", where="view PNG")
 
 
 VIEW_BUTTONS: tuple[tuple[str, str], ...] = (
@@ -202,6 +234,6 @@ VIEW_BUTTONS: tuple[tuple[str, str], ...] = (
 assert all(k in STANDARD_VIEWS for _, k in VIEW_BUTTONS)
 
 
-__all__ = ["DEFAULT_VIEW", "NOSE_FILL", "SCALE_BAR_MARGIN_PX", "SCALE_BAR_MM", "VIEW_BUTTONS",
-           "camera_of_view", "scale_bar_pixels", "scale_bar_segments", "view_camera",
-           "view_png", "view_pose"]
+__all__ = ["DEFAULT_VIEW", "NOSE_FILL", "PNG_SCALE_BAR_BGR", "SCALE_BAR_MARGIN_PX",
+           "SCALE_BAR_MM", "VIEW_BUTTONS", "camera_of_view", "draw_scale_bar",
+           "scale_bar_pixels", "scale_bar_segments", "view_camera", "view_png", "view_pose"]

@@ -64,3 +64,32 @@ def test_front_view_in_a_narrow_window_keeps_the_bar_in_view_and_true(baseline: 
     depth = rasterize(V, F, cam).depth
     r, c = int(px[0, 0, 1]), int(px[0, 0, 0])
     assert cam.depth(segs[0, :1])[0] < depth[max(r - 3, 0):r + 3, c - 3:c + 3].min()
+
+
+@pytest.mark.parametrize("view", ["front", "base", "left"])
+def test_view_png_has_the_scale_bar_at_its_true_length(baseline: Baseline, view):
+    """'Save view as PNG' draws the 10 mm bar (issue 27: it had none): a dark upright
+    line as long in pixels as 10 mm at the nose's depth, off the face."""
+    import cv2
+
+    from naseview.app.viewer import view_png
+
+    V, F = baseline.V, baseline.F
+    cam = view_camera(V, baseline.nose_ids, view, 16 / 9, height=900)
+    plain = cv2.imdecode(np.frombuffer(view_png(V, F, cam), np.uint8), cv2.IMREAD_COLOR)
+    img = cv2.imdecode(np.frombuffer(view_png(V, F, cam, nose_ids=baseline.nose_ids),
+                                     np.uint8), cv2.IMREAD_COLOR)
+    changed = np.abs(img.astype(int) - plain.astype(int)).sum(axis=2) > 60
+    assert changed.any(), "no scale bar in the PNG"
+    segs, _ = scale_bar_segments(V, F, baseline.nose_ids, cam)
+    px = scale_bar_pixels(segs, cam)
+    x = int(round(px[0, 0, 0]))
+    col = changed[:, x - 1:x + 2].any(axis=1)
+    rows = np.flatnonzero(col)
+    P = V[baseline.nose_ids]
+    z = cam.depth((0.5 * (P.min(0) + P.max(0)))[None])[0]
+    want = cam.K[1, 1] * SCALE_BAR_MM / z
+    assert abs((rows.max() - rows.min()) - want) < 0.06 * want + 4, (rows.min(), rows.max(),
+                                                                     want)
+    face = np.isfinite(rasterize(V, F, cam).depth)
+    assert not (changed & face).any(), "the scale bar or its label is drawn over the face"
