@@ -93,3 +93,39 @@ def test_view_png_has_the_scale_bar_at_its_true_length(baseline: Baseline, view)
                                                                      want)
     face = np.isfinite(rasterize(V, F, cam).depth)
     assert not (changed & face).any(), "the scale bar or its label is drawn over the face"
+
+
+@pytest.mark.parametrize("yaw_deg", [-40.0, -20.0, 0.0, 20.0, 40.0])
+def test_patient_mode_labels_sit_beside_the_face_not_over_the_eye(baseline: Baseline,
+                                                                  yaw_deg):
+    """Patient mode's measurement labels end just off the face's outline on the image
+    left, their text running away from the face, wherever the turntable is (issue 27:
+    they floated over the eye)."""
+    import math
+
+    from naseview.app.patient_mode import (
+        KEY_MEASUREMENTS,
+        TURNTABLE_DISTANCE_FACTOR,
+        label_anchors,
+        turntable_eye,
+    )
+    from naseview.camera import DISTANCE_MM, look_at
+
+    yaw = math.radians(yaw_deg)
+    before = {name: 1.0 for name, _ in KEY_MEASUREMENTS}
+    placed = label_anchors(baseline.V, baseline.nose_ids, baseline.landmarks, before, None,
+                           yaw)
+    assert len(placed) == len(KEY_MEASUREMENTS)
+    nose = baseline.V[baseline.nose_ids]
+    target = 0.5 * (nose.min(0) + nose.max(0))
+    period = 24.0
+    t = period * math.asin(yaw_deg / 40.0) / (2 * math.pi)
+    eye = turntable_eye(target, TURNTABLE_DISTANCE_FACTOR * DISTANCE_MM, t)
+    cam = look_at(eye, target, np.array([0.0, 1.0, 0.0]), 1000.0, 900, 600)
+    face = np.isfinite(rasterize(baseline.V, baseline.F, cam).depth)
+    for name, _, p in placed:
+        x, y = cam.project(p[None])[0]
+        r, c = int(round(y)), int(round(x))
+        assert not face[r, max(c - 60, 0):c + 1].any(), \
+            f"yaw {yaw_deg}: {name} label on the face"
+        assert face[r, c:].any(), f"yaw {yaw_deg}: {name} label not beside the face"
