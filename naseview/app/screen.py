@@ -152,6 +152,32 @@ class Screen:
             self.photo_sim.add_display(self.client.gui)
         with self.patient.panel.add_tab("On the photos", icon=viser.Icon.PHOTO):
             self.photo_sim.add_display(self.client.gui)
+        self._label_timer: threading.Timer | None = None
+        client.camera.on_update(lambda _: self._camera_moved())
+
+    def _camera_moved(self) -> None:
+        """The tab's view changed: lay the landmark labels out again once it rests
+        (0.2 s), for what this view sees (:func:`naseview.app.scene.label_layout`)."""
+        if self._label_timer is not None:
+            self._label_timer.cancel()
+        t = threading.Timer(0.2, self._layout_labels)
+        t.daemon = True
+        self._label_timer = t
+        t.start()
+
+    def _layout_labels(self) -> None:
+        scene = self.scene
+        if scene is None or self.closed:
+            return
+        try:
+            c = self.client.camera
+            cam = camera_of_view(c.position, c.look_at, c.up_direction, c.fov, c.aspect,
+                                 600)
+            with self._lock:
+                if self.scene is scene:
+                    scene.set_label_camera(cam)
+        except Exception:  # the tab went away mid-layout
+            log.debug("naseview: label layout skipped", exc_info=True)
 
     def _build_patient_folder(self) -> None:
         """"Patient" at the top of the panel: new patient, patient mode and screen,
@@ -237,6 +263,7 @@ class Screen:
             annotating = self.annotate is not None and self.annotate.active
             if not annotating and not keep_camera:   # the page frames its photo
                 self.reset_camera()
+            self._camera_moved()
         self._show_texts()
         self.photo_sim.request()
         if self.patient_screen or self.patient.active:
@@ -530,6 +557,8 @@ class Screen:
             if self.closed:
                 return
             self.closed = True
+            if self._label_timer is not None:
+                self._label_timer.cancel()
             for step in (self.patient.close, self.photo_sim.close, self._drop_scene,
                          self.annotate.close if self.annotate is not None else None):
                 if step is None:

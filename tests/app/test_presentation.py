@@ -129,3 +129,37 @@ def test_patient_mode_labels_sit_beside_the_face_not_over_the_eye(baseline: Base
         assert not face[r, max(c - 60, 0):c + 1].any(), \
             f"yaw {yaw_deg}: {name} label on the face"
         assert face[r, c:].any(), f"yaw {yaw_deg}: {name} label not beside the face"
+
+
+def test_landmark_labels_hide_unseen_landmarks_and_do_not_overlap(baseline: Baseline):
+    """Issue 27: labels overlapped and named hidden landmarks. In the left profile the
+    landmarks of the right side are hidden (no label); in every standard view the label
+    boxes shown do not overlap."""
+    from naseview.app.landmark_names import display_name
+    from naseview.app.scene import LABEL_PX, label_layout
+
+    L = baseline.landmarks
+    lift = np.array([0.0, 2.2, 0.0])
+    anchors = {k: np.asarray(p, np.float64) + lift for k, p in L.items()}
+    texts = {k: display_name(k) for k in L}
+    cam = view_camera(baseline.V, baseline.nose_ids, "left", 16 / 9, height=600)
+    out = label_layout(anchors, L, texts, baseline.V, baseline.F, cam)
+    hidden = [k for k, p in out.items() if p is None]
+    right = [k for k in L if k.endswith("_r") and L[k][0] < -8.0]
+    assert right and set(right) <= set(hidden), (right, hidden)
+    assert out.get("prn") is not None                     # the tip is seen in profile
+    for view in VIEWS:
+        cam = view_camera(baseline.V, baseline.nose_ids, view, 16 / 9, height=600)
+        out = label_layout(anchors, L, texts, baseline.V, baseline.F, cam)
+        boxes = []
+        for k, p in out.items():
+            if p is None:
+                continue
+            u, v = cam.project(p[None])[0]
+            w = LABEL_PX[0] * len(texts[k]) + 6.0
+            boxes.append((u - w / 2, v - LABEL_PX[1], u + w / 2, v, k))
+        for i, a in enumerate(boxes):
+            for b in boxes[i + 1:]:
+                overlap = a[0] < b[2] - 0.5 and b[0] < a[2] - 0.5 \
+                    and a[1] < b[3] - 0.5 and b[1] < a[3] - 0.5
+                assert not overlap, f"{view}: labels {a[4]} and {b[4]} overlap"
