@@ -646,6 +646,10 @@ class NaseviewApp:
         """Bake the photo texture (once for every tab) after the editor is up, then show
         it in every tab, keeping each tab's view (job thread; the bake takes longer than
         everything else the install does, issue 27 item 6)."""
+        if self.status.endswith("building the editor…"):
+            self.set_status(self.status.replace(
+                "building the editor…", "texturing the face from the photos (the editor "
+                "is ready)…"))
         look = face_look(self)          # baked once here for every tab
         if seq != self._job_seq or look is None or look.texture is None:
             return                         # (untextured: the plain skin shown is it)
