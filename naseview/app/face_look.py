@@ -6,9 +6,10 @@ every tab.
 cameras (:func:`naseview.texture.bake.bake_texture`; None without photos, e.g. a session
 whose case folder is gone) and the :class:`~naseview.app.face_glb.FaceGlb` parts every
 tab's scene sends. It is computed once per (baseline, moving region) and cached on the app,
-so the first caller pays for the bake — call :func:`prepare_face_look` on the job thread
-where a reconstruction is installed, before the tabs' scenes are built — and every tab
-that connects later reuses it.
+so the first caller pays for the bake — the app bakes it on the job thread right after
+the editor is up and the tabs show the face in plain skin (the bake takes longer than the
+rest of the install, issue 27 item 6: ``face_look(app, bake=False)`` never waits for it),
+then shows it in every tab — and every tab that connects later reuses it.
 """
 
 from __future__ import annotations
@@ -96,22 +97,30 @@ _CACHE: weakref.WeakKeyDictionary[object, FaceLook] = weakref.WeakKeyDictionary(
 _LOCK = threading.Lock()
 
 
-def face_look(app: LookSource) -> FaceLook | None:
+def face_look(app: LookSource, bake: bool = True) -> FaceLook | None:
     """The look of ``app``'s open reconstruction (baked on first use, then cached on the
-    app); None while nothing is open."""
+    app); None while nothing is open. With ``bake`` False only an already baked look is
+    returned (None while it is missing or being baked: the caller shows plain skin and
+    never waits for the bake)."""
     ctl = app.controller
     if ctl is None:
         return None
     base = ctl.baseline
     region = np.asarray(app.moving if len(app.moving) else base.nose_ids, np.int64)
-    with _LOCK:                   # one bake at a time; the other tabs wait and reuse it
+    if not _LOCK.acquire(blocking=bake):   # one bake at a time; the others wait, reuse it
+        return None
+    try:
         hit = _CACHE.get(app)
         if hit is not None and hit.baseline is base \
                 and np.array_equal(hit.parts.region, region):
             return hit
+        if not bake:
+            return None
         look = make_look(base, region, app.cameras, case_photos(app.case, app.cameras))
         _CACHE[app] = look
         return look
+    finally:
+        _LOCK.release()
 
 
 def set_face_look(app: LookSource, look: FaceLook) -> None:

@@ -23,7 +23,7 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -59,14 +59,61 @@ KEY_MEASUREMENTS: tuple[tuple[str, str], ...] = (
 """Measurements shown as large labels: (name, short title)."""
 
 
+def turntable_yaw(seconds: float, amplitude_deg: float = TURNTABLE_DEG,
+                  period_s: float = TURNTABLE_PERIOD_S) -> float:
+    """The turntable's yaw (rad, 0 = front, > 0 = camera toward the subject's left) at
+    time ``seconds``."""
+    return math.radians(amplitude_deg) * math.sin(2.0 * math.pi * seconds / period_s)
+
+
 def turntable_eye(target: np.ndarray, distance: float, seconds: float,
                   amplitude_deg: float = TURNTABLE_DEG,
                   period_s: float = TURNTABLE_PERIOD_S) -> np.ndarray:
     """(3,) camera position of the turntable at time ``seconds``: a sinusoidal swing of
     ``amplitude_deg`` about the vertical axis through ``target``, slightly from above."""
-    a = math.radians(amplitude_deg) * math.sin(2.0 * math.pi * seconds / period_s)
+    a = turntable_yaw(seconds, amplitude_deg, period_s)
     d = np.array([math.sin(a), 0.12, math.cos(a)])
     return np.asarray(target, np.float64) + distance * d / np.linalg.norm(d)
+
+
+def label_anchors(V: np.ndarray, nose_ids: np.ndarray, L: Mapping[str, np.ndarray],
+                  before: dict[str, float], after: dict[str, float] | None,
+                  yaw_rad: float = 0.0) -> list[tuple[str, str, np.ndarray]]:
+    """``(name, text, anchor (3,))`` of each key measurement's label: beside the face,
+    just off its outline on the image left (from the front: the subject's right, the
+    empty side between the patient panel and the face) seen by the turntable at
+    ``yaw_rad`` (:func:`turntable_yaw`), at the height of what it measures, at least
+    8 mm apart; the label's text ends at the anchor (``center-right``). Issue 27: labels
+    8 mm beside the nose floated over the eye and the cheek."""
+    V = np.asarray(V, np.float64)
+    nose = V[nose_ids] if len(nose_ids) else V
+    centre_x = float(0.5 * (nose[:, 0].min() + nose[:, 0].max()))
+
+    def anchor(name: str) -> np.ndarray | None:
+        ys = {"nasofrontal_angle": ("n",), "nasal_length": ("n", "prn"),
+              "tip_projection": ("prn",), "nasal_width": ("al_l", "al_r")}[name]
+        if not all(i in L for i in ys):
+            return None
+        y = float(np.mean([L[i][1] for i in ys]))
+        return np.array([centre_x, y, 0.0])
+
+    placed: list[tuple[str, str, np.ndarray]] = []
+    for name, title in KEY_MEASUREMENTS:
+        text = label_text(name, title, before, after)
+        p = anchor(name)
+        if text is not None and p is not None:
+            placed.append((name, text, p))
+    placed.sort(key=lambda t: -t[2][1])          # top to bottom, at least 8 mm apart
+    for k in range(1, len(placed)):
+        if placed[k - 1][2][1] - placed[k][2][1] < 8.0:
+            placed[k][2][1] = placed[k - 1][2][1] - 8.0
+    right = np.array([math.cos(yaw_rad), 0.0, -math.sin(yaw_rad)])   # image right
+    for _, _, p in placed:                       # off the outline at that height
+        band = V[np.abs(V[:, 1] - p[1]) < 6.0]
+        band = band if len(band) else V
+        i = int(np.argmin(band @ right))
+        p[[0, 2]] = (band[i] - 6.0 * right)[[0, 2]]
+    return placed
 
 
 def label_text(name: str, title: str, before: dict[str, float],
@@ -102,6 +149,8 @@ class PatientMode:
         self.active = False
         self.t = 1.0
         self._labels: list[viser.LabelHandle] = []
+        self._label_values: tuple[dict[str, float], dict[str, float] | None] | None = None
+        self._yaw = 0.0
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._lock = threading.RLock()
@@ -262,35 +311,27 @@ class PatientMode:
         _, scene, base = self._state()
         self._remove_labels()
         L = base.landmarks
-        # on the cheek beside the nose, on the subject's left (image right from the front,
-        # away from the docked panel), at the height of what each one measures: the nose
-        # itself stays unobstructed and the labels stay in view during the turntable
-        nose = base.V[base.nose_ids] if len(base.nose_ids) else base.V
-        face_x = float(nose[:, 0].max()) + 8.0
-        z = float(np.median(nose[:, 2]))
-
-        def anchor(name: str) -> np.ndarray | None:
-            ys = {"nasofrontal_angle": ("n",), "nasal_length": ("n", "prn"),
-                  "tip_projection": ("prn",), "nasal_width": ("al_l", "al_r")}[name]
-            if not all(i in L for i in ys):
-                return None
-            y = float(np.mean([L[i][1] for i in ys]))
-            return np.array([face_x, y, z])
-
-        placed: list[tuple[str, str, np.ndarray]] = []
-        for name, title in KEY_MEASUREMENTS:
-            text = label_text(name, title, before, after)
-            p = anchor(name)
-            if text is not None and p is not None:
-                placed.append((name, text, p))
-        placed.sort(key=lambda t: -t[2][1])          # top to bottom, at least 8 mm apart
-        for k in range(1, len(placed)):
-            if placed[k - 1][2][1] - placed[k][2][1] < 8.0:
-                placed[k][2][1] = placed[k - 1][2][1] - 8.0
+        self._label_values = (before, after)
+        placed = label_anchors(base.V, base.nose_ids, L, before, after, self._yaw)
         for i, (_, text, p) in enumerate(placed):
             self._labels.append(scene.scene.add_label(
                 f"/patient/label{i}", text, position=tuple(p), font_screen_scale=1.5,
-                anchor="center-left"))
+                anchor="center-right"))
+
+    def _follow_yaw(self, yaw: float) -> None:
+        """Keep the labels beside the face's outline as the turntable turns."""
+        with self._lock:
+            self._yaw = yaw
+            if not self._labels or self._label_values is None:
+                return
+            ctl = self.app.controller
+            if ctl is None:
+                return
+            base = ctl.baseline
+            placed = label_anchors(base.V, base.nose_ids, base.landmarks,
+                                   *self._label_values, yaw)
+            for h, (_, _, p) in zip(self._labels, placed, strict=False):
+                h.position = np.asarray(p, np.float64)
 
     # turntable
     def _turntable_changed(self) -> None:
@@ -313,7 +354,8 @@ class PatientMode:
         def run() -> None:
             t0 = time.monotonic()
             while not self._stop.wait(1.0 / TURNTABLE_HZ):
-                eye = turntable_eye(target, distance, time.monotonic() - t0)
+                t = time.monotonic() - t0
+                eye = turntable_eye(target, distance, t)
                 for c in clients_of(self.scope):   # this tab only
                     try:
                         with c.atomic():
@@ -322,6 +364,10 @@ class PatientMode:
                             c.camera.up_direction = (0.0, 1.0, 0.0)
                     except Exception:  # the tab closed: close() stops this thread
                         log.debug("naseview: turntable camera not set", exc_info=True)
+                try:
+                    self._follow_yaw(turntable_yaw(t))
+                except Exception:
+                    log.debug("naseview: labels not moved", exc_info=True)
 
         self._thread = threading.Thread(target=run, name="naseview-turntable", daemon=True)
         self._thread.start()
@@ -429,4 +475,5 @@ def _line(text: object, limit: int = 120) -> str:
     return "".join(c for c in out if c.isprintable())[:limit]
 
 
-__all__ = ["KEY_MEASUREMENTS", "PatientMode", "blend", "label_text", "turntable_eye"]
+__all__ = ["KEY_MEASUREMENTS", "PatientMode", "blend", "label_anchors", "label_text",
+           "turntable_eye", "turntable_yaw"]

@@ -331,6 +331,61 @@ def _icosphere(radius: float) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(s.vertices), np.asarray(s.faces)
 
 
+LABEL_PX = (8.0, 18.0)
+"""Approximate (width of a character, height) of a landmark label on screen (px)."""
+
+
+def label_layout(anchors: Mapping[str, np.ndarray], landmarks: Mapping[str, np.ndarray],
+                 texts: Mapping[str, str], V: np.ndarray, F: np.ndarray, camera: Camera,
+                 tol_mm: float = 1.5) -> dict[str, np.ndarray | None]:
+    """Where each landmark label goes in the view of ``camera``: None for a landmark the
+    camera cannot see (behind the face ``V``, ``F``: its label would name a hidden point),
+    else its anchor (3,), moved up or down on screen (at its own depth) until its box
+    (:data:`LABEL_PX` per character, ``bottom-center`` anchored) overlaps no label placed
+    before it (placed top to bottom). Issue 27: labels overlapped and named hidden
+    landmarks."""
+    from naseview.render import rasterize, visible_points
+
+    ids = [k for k in anchors if k in landmarks]
+    out: dict[str, np.ndarray | None] = dict.fromkeys(anchors)
+    if not ids:
+        return out
+    s = min(1.0, 320.0 / max(camera.width, camera.height))
+    small = Camera(np.diag([s, s, 1.0]) @ camera.K, camera.R, camera.t,
+                   max(8, int(round(camera.width * s))), max(8, int(round(camera.height * s))))
+    depth = rasterize(V, F, small).depth
+    P = np.array([landmarks[k] for k in ids], np.float64)
+    seen = visible_points(P, small, depth, tol_mm=tol_mm, radius_px=1)
+    A = np.array([anchors[k] for k in ids], np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv = camera.project(A)
+    z = camera.depth(A)
+    cw, ch = LABEL_PX
+    boxes: list[tuple[float, float, float, float]] = []
+    order = sorted((j for j in range(len(ids)) if seen[j] and z[j] > 0), key=lambda j: uv[j, 1])
+    for j in order:
+        w = cw * len(texts.get(ids[j], ids[j])) + 6.0
+        x0, x1 = uv[j, 0] - w / 2, uv[j, 0] + w / 2
+        y = float(uv[j, 1])
+
+        def hits(y: float, x0: float = x0, x1: float = x1) -> bool:
+            return any(x0 < b[2] and b[0] < x1 and y - ch < b[3] and b[1] < y
+                       for b in boxes)
+
+        best = y
+        for step in range(1, 40):
+            if not hits(best):
+                break
+            up, down = y - step * 0.5 * ch, y + step * 0.5 * ch
+            best = up if not hits(up) else down if not hits(down) else best
+        if hits(best):
+            best = y
+        boxes.append((x0, best - ch, x1, best))
+        ray = np.linalg.solve(camera.K, np.array([uv[j, 0], best, 1.0]))
+        out[ids[j]] = camera.R.T @ (z[j] * ray - camera.t)
+    return out
+
+
 class FaceScene:
     """Viser handles of one baseline, updated from an :class:`EditController`.
 
@@ -394,6 +449,7 @@ class FaceScene:
             for i in base.landmarks}
         self.show_labels = False
         self._active_label: str | None = None
+        self.label_camera: Camera | None = None
         self.curves = self._add_curves()
         self.ad = self._add_ad_landmarks()
         self.frustums: dict[str, viser.CameraFrustumHandle] = {}
@@ -574,12 +630,31 @@ class FaceScene:
 
     def _refresh_labels(self) -> None:
         lms = self._shown(self.ctl.landmarks)
+        wanted = {i: self._label_position(i, lms[i]) for i in self.labels
+                  if self._label_wanted(i)}
+        placed: Mapping[str, np.ndarray | None] = wanted
+        cam = self.label_camera
+        if cam is not None and wanted:
+            try:
+                placed = label_layout(wanted, lms, {i: display_name(i) for i in wanted},
+                                      self.shown_vertices(self.ctl.simulation),
+                                      self.base.F, cam)
+            except Exception:  # a label layout never breaks the scene
+                log.debug("naseview: label layout failed", exc_info=True)
         for i, h in self.labels.items():
-            want = self._label_wanted(i)
-            if want:
-                h.position = self._label_position(i, lms[i])
+            p = placed.get(i)
+            want = p is not None
+            if p is not None:
+                h.position = p
             if h.visible != want:
                 h.visible = want
+
+    def set_label_camera(self, camera: Camera | None) -> None:
+        """The tab's current view (None: unknown): labels of landmarks it cannot see are
+        hidden and overlapping ones spread (:func:`label_layout`)."""
+        self.label_camera = camera
+        if any(self._label_wanted(i) for i in self.labels):
+            self._refresh_labels()
 
     def _show_active_label(self, lid: str | None) -> None:
         """The dragged landmark's label (``None``: the drag ended)."""

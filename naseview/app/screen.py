@@ -48,6 +48,7 @@ from naseview.app.viewer import (
     SCALE_BAR_MM,
     camera_of_view,
     scale_bar_segments,
+    view_camera,
     view_png,
     view_pose,
 )
@@ -151,6 +152,32 @@ class Screen:
             self.photo_sim.add_display(self.client.gui)
         with self.patient.panel.add_tab("On the photos", icon=viser.Icon.PHOTO):
             self.photo_sim.add_display(self.client.gui)
+        self._label_timer: threading.Timer | None = None
+        client.camera.on_update(lambda _: self._camera_moved())
+
+    def _camera_moved(self) -> None:
+        """The tab's view changed: lay the landmark labels out again once it rests
+        (0.2 s), for what this view sees (:func:`naseview.app.scene.label_layout`)."""
+        if self._label_timer is not None:
+            self._label_timer.cancel()
+        t = threading.Timer(0.2, self._layout_labels)
+        t.daemon = True
+        self._label_timer = t
+        t.start()
+
+    def _layout_labels(self) -> None:
+        scene = self.scene
+        if scene is None or self.closed:
+            return
+        try:
+            c = self.client.camera
+            cam = camera_of_view(c.position, c.look_at, c.up_direction, c.fov, c.aspect,
+                                 600)
+            with self._lock:
+                if self.scene is scene:
+                    scene.set_label_camera(cam)
+        except Exception:  # the tab went away mid-layout
+            log.debug("naseview: label layout skipped", exc_info=True)
 
     def _build_patient_folder(self) -> None:
         """"Patient" at the top of the panel: new patient, patient mode and screen,
@@ -210,9 +237,11 @@ class Screen:
         self.app.open(path, asker=self)
 
     # the case
-    def show_case(self) -> None:
+    def show_case(self, keep_camera: bool = False) -> None:
         """Build this tab's scene of the app's editor (after an install, or when the tab
-        connects) and bring the panel up to date."""
+        connects) and bring the panel up to date. The face is textured when the photo
+        texture is baked, else in plain skin (the app bakes it after the editor is up
+        and then calls this again with ``keep_camera``: the tab's view is kept)."""
         app = self.app
         ctl = app.controller
         if ctl is None or self.closed:
@@ -220,7 +249,7 @@ class Screen:
         with self._lock:
             self.shown.clear()
             self._drop_scene()
-            look = face_look(app)
+            look = face_look(app, bake=False)
             scene = FaceScene(self.client, ctl, app.editable, app.cameras, app.photos,
                               region=app.moving,
                               parts=look.parts if look is not None else None)
@@ -232,8 +261,9 @@ class Screen:
             self._subscribed = ctl
             self.apply_display()
             annotating = self.annotate is not None and self.annotate.active
-            if not annotating:           # the page frames its photo; it resets on close
+            if not annotating and not keep_camera:   # the page frames its photo
                 self.reset_camera()
+            self._camera_moved()
         self._show_texts()
         self.photo_sim.request()
         if self.patient_screen or self.patient.active:
@@ -355,7 +385,15 @@ class Screen:
             cam.position = (float(eye[0]), float(eye[1]), float(eye[2]))
             cam.look_at = (float(target[0]), float(target[1]), float(target[2]))
             cam.up_direction = (0.0, 1.0, 0.0)
-        self._place_scale_bar(ctl.simulation.V, base.nose_ids, R)
+        self._place_scale_bar(ctl.simulation.V, base.F, base.nose_ids, view)
+
+    def _aspect(self) -> float:
+        """Width / height of this tab's 3D view (1 before the browser reported it)."""
+        try:
+            a = float(self.client.camera.aspect)
+        except Exception:  # no camera message yet
+            return 1.0
+        return a if np.isfinite(a) and a > 0 else 1.0
 
     def _remove_scale_bar(self) -> None:
         for h in self._scale_bar:
@@ -365,11 +403,16 @@ class Screen:
                 log.debug("naseview: scale bar already gone", exc_info=True)
         self._scale_bar = []
 
-    def _place_scale_bar(self, V: np.ndarray, nose_ids: np.ndarray, R: np.ndarray) -> None:
-        """A 10 mm bar beside the nose in the plane facing the view of rotation ``R``."""
+    def _place_scale_bar(self, V: np.ndarray, F: np.ndarray, nose_ids: np.ndarray,
+                         view: str) -> None:
+        """A 10 mm bar beside the face in the plane facing the standard ``view`` (none in
+        patient mode: the turntable would carry it across the face)."""
         self._remove_scale_bar()
-        segs, label_at = scale_bar_segments(V, nose_ids, R)
-        left_side = float(np.dot(label_at - segs[0, 0], R[0])) < 0
+        if self.patient_screen or self.patient.active:
+            return
+        cam = view_camera(V, nose_ids, view, self._aspect())
+        segs, label_at = scale_bar_segments(V, F, nose_ids, cam)
+        left_side = float(np.dot(label_at - segs[0, 0], cam.R[0])) < 0
         scene = self.client.scene
         self._scale_bar = [
             scene.add_line_segments("/scale_bar/bar", segs, SCALE_BAR_COLOR, thickness=3.0,
@@ -395,7 +438,8 @@ class Screen:
 
         def job() -> None:
             try:
-                data = view_png(V, F, cam, look.texture if look is not None else None)
+                data = view_png(V, F, cam, look.texture if look is not None else None,
+                                nose_ids=ctl.baseline.nose_ids)
                 target.send_file_download(name, data, save_immediately=True)
             except Exception as e:
                 log.exception("naseview: view PNG failed")
@@ -513,6 +557,8 @@ class Screen:
             if self.closed:
                 return
             self.closed = True
+            if self._label_timer is not None:
+                self._label_timer.cancel()
             for step in (self.patient.close, self.photo_sim.close, self._drop_scene,
                          self.annotate.close if self.annotate is not None else None):
                 if step is None:

@@ -45,7 +45,7 @@ from naseview.app.export import (
     measurements_json,
     mesh_file,
 )
-from naseview.app.face_look import prepare_face_look
+from naseview.app.face_look import face_look
 from naseview.app.guard import guarded_viser_server
 from naseview.app.gui_value import set_value
 from naseview.app.landmark_diagrams import LandmarkDiagrams
@@ -623,8 +623,7 @@ class NaseviewApp:
                               + (f" (grey = fixed: {', '.join(fixed)})" if fixed else "")
                               + "; the arrow on the selected sphere moves it in or out.")
             self._initial_camera(baseline)
-            prepare_face_look(self)      # the texture, baked once here for every tab
-            self._each_screen(lambda s: s.show_case())
+            self._each_screen(lambda s: s.show_case())   # the editor now, in plain skin
         if ctl is not previous:          # a new editor: autosaved (a rebase keeps its own)
             try:
                 self.work.attach(ctl, self.app_state)
@@ -641,6 +640,21 @@ class NaseviewApp:
         elif self.case is None or self.source is not None and \
                 (self.source / "reconstruction.json").is_file():
             self.set_status(f"**{self.case_id}** loaded.")
+        self._bake_look(seq)
+
+    def _bake_look(self, seq: int) -> None:
+        """Bake the photo texture (once for every tab) after the editor is up, then show
+        it in every tab, keeping each tab's view (job thread; the bake takes longer than
+        everything else the install does, issue 27 item 6)."""
+        if self.status.endswith("building the editor…"):
+            self.set_status(self.status.replace(
+                "building the editor…", "texturing the face from the photos (the editor "
+                "is ready)…"))
+        look = face_look(self)          # baked once here for every tab
+        if seq != self._job_seq or look is None or look.texture is None:
+            return                         # (untextured: the plain skin shown is it)
+        with self._lock:
+            self._each_screen(lambda s: s.show_case(keep_camera=True))
 
     def _controller_for(self, baseline: Baseline, session: Session | None,
                         solver: Solver) -> EditController:

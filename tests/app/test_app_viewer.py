@@ -94,7 +94,7 @@ def test_standard_views_put_the_camera_on_their_side(served, baseline, view, axi
     assert (lo > -0.05 * w).all() and hi[0] < 1.05 * w and hi[1] < 1.05 * h
     bar = screen._scale_bar[0]                                 # 10 mm, facing the view
     seg = np.asarray(bar.points)[0]
-    assert abs(np.linalg.norm(seg[1] - seg[0]) - 10.0) < 1e-6
+    assert abs(np.linalg.norm(seg[1] - seg[0]) - 10.0) < 1e-4   # float32 in the scene
     fwd = np.asarray(tab.client.camera.look_at) - np.asarray(tab.client.camera.position)
     assert abs(np.dot(seg[1] - seg[0], fwd / np.linalg.norm(fwd))) < 1e-3
 
