@@ -57,6 +57,15 @@ def glb_array(doc: dict, binary: bytes, accessor: int) -> np.ndarray:
     return a.reshape(acc["count"], width)
 
 
+def recorded_messages(tab) -> list[object]:
+    """The list every message queued for ``tab`` from now on is appended to (and sent)."""
+    sent: list[object] = []
+    ws = tab.client._websock_connection
+    orig = ws.queue_message
+    ws.queue_message = lambda m: (sent.append(m), orig(m))[1]
+    return sent
+
+
 def nose_box(tab, baseline: Baseline) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
     c = tab.client.camera
     cam = camera_of_view(c.position, c.look_at, c.up_direction, c.fov, c.aspect, 600)
@@ -125,10 +134,7 @@ def test_the_face_is_sent_textured_and_without_a_seam(served, baseline):
     set_face_look(app, look)
     tab, screen = open_tab(server, app)
     tabs.append(tab)
-    sent: list[object] = []
-    ws = tab.client._websock_connection
-    orig = ws.queue_message
-    ws.queue_message = lambda m: (sent.append(m), orig(m))[1]
+    sent = recorded_messages(tab)
     screen.show_case()                              # what the tab is sent for the case
     glbs = {m.name: m.props.glb_data for m in sent if hasattr(m, "props")
             and hasattr(m.props, "glb_data")}
@@ -214,10 +220,7 @@ def test_the_nose_never_leaves_a_hole_while_its_glb_loads(served, baseline):
     set_face_look(app, make_look(baseline, app.moving, cams, photos, size=128))
     tab, screen = open_tab(server, app)
     tabs.append(tab)
-    sent: list[object] = []
-    ws = tab.client._websock_connection
-    orig = ws.queue_message
-    ws.queue_message = lambda m: (sent.append(m), orig(m))[1]
+    sent = recorded_messages(tab)
     node = screen.scene.nose
     parts: FaceGlb = screen.scene.parts
     assert parts.nose_rgb != (0, 0, 0) and max(parts.nose_rgb) > 60   # skin, not black
