@@ -19,9 +19,9 @@ import cv2
 import numpy as np
 import viser
 
+from naseview.app.colormap import colorbar_image
 from naseview.app.export import MESH_TYPES, measurements_markdown
 from naseview.app.gui_value import set_value
-from naseview.app.scene import colorbar_image
 from naseview.app.scope import Scope, notify
 from naseview.app.viewer import VIEW_BUTTONS
 from naseview.camera import Camera

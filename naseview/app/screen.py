@@ -30,6 +30,7 @@ import numpy as np
 import viser
 
 from naseview.app.annotate_page import AnnotatePage
+from naseview.app.colormap import nice_limit, signed_displacement
 from naseview.app.face_look import face_look, look_export
 from naseview.app.gui_value import set_value
 from naseview.app.panels import (
@@ -41,7 +42,7 @@ from naseview.app.panels import (
 )
 from naseview.app.patient_mode import PatientMode
 from naseview.app.photo_sim import PhotoSimulation, SimInputs, sim_inputs
-from naseview.app.scene import NOSE, SKIN, FaceScene, nice_limit, signed_displacement
+from naseview.app.scene import NOSE, SKIN, FaceScene
 from naseview.app.scope import NoticeColor, notify, run_action
 from naseview.app.viewer import (
     DEFAULT_VIEW,
