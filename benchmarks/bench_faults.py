@@ -46,6 +46,7 @@ from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER  # noqa: E402
 from naseview.intake.patients import PatientFolders  # noqa: E402
 from naseview.intake.session import AnnotationSession  # noqa: E402
 from naseview.records import PatientRecords  # noqa: E402
+from naseview.records.autosave import Autosave  # noqa: E402
 from naseview.records.patient import reconstruction_state  # noqa: E402
 from naseview.records.simulations import read_simulation  # noqa: E402
 
@@ -96,20 +97,32 @@ def _run_killed(child: Callable[[int], None], kill_after: float,
     return buf.decode().splitlines()
 
 
-# scenarios: each returns (lost, corrupt) of one kill
-
-def autosave_kill(work: Path, rng: random.Random) -> tuple[int, int]:
+def _patient_simulation(work: Path) -> tuple[Patient, str]:
+    """A fresh patient and a first simulation of it (no edit): (patient, its slug)."""
     p = _patient(work)
     ctl0 = p.controller()
     slug = p.records.start_simulation(PID, ctl0, reconstruction_sha256=p.saved.sha256,
                                       delay=60.0).slug
     ctl0.close()
+    return p, slug
+
+
+def _resume(work: Path, slug: str, delay: float) -> tuple[EditController, Autosave]:
+    """The simulation ``slug`` opened in a new window of its own (records, controller,
+    autosave after ``delay`` s), as another tab or server would."""
+    rec = PatientRecords(work)
+    s = rec.load_simulation(PID, slug)
+    ctl = EditController.from_session(s, None)
+    return ctl, rec.resume_simulation(PID, slug, ctl, s, delay=delay)
+
+
+# scenarios: each returns (lost, corrupt) of one kill
+
+def autosave_kill(work: Path, rng: random.Random) -> tuple[int, int]:
+    p, slug = _patient_simulation(work)
 
     def child(w: int) -> None:
-        rec = PatientRecords(work)
-        s = rec.load_simulation(PID, slug)
-        ctl = EditController.from_session(s, None)
-        auto = rec.resume_simulation(PID, slug, ctl, s, delay=rng.choice([0.0, 0.01, 0.05]))
+        ctl, auto = _resume(work, slug, rng.choice([0.0, 0.01, 0.05]))
         for n in range(1, 10_000):
             drag(ctl, "prn", np.array([0.0, 0.0, 0.01]), steps=1)
             if auto.flush() and auto.error is None:
@@ -180,17 +193,10 @@ def case_kill(work: Path, rng: random.Random) -> tuple[int, int]:
 
 
 def signal_stop(work: Path, rng: random.Random, sig: int) -> tuple[int, int]:
-    p = _patient(work)
-    ctl0 = p.controller()
-    slug = p.records.start_simulation(PID, ctl0, reconstruction_sha256=p.saved.sha256,
-                                      delay=60.0).slug
-    ctl0.close()
+    p, slug = _patient_simulation(work)
 
     def child(w: int) -> None:
-        rec = PatientRecords(work)
-        s = rec.load_simulation(PID, slug)
-        ctl = EditController.from_session(s, None)
-        auto = rec.resume_simulation(PID, slug, ctl, s, delay=60.0)   # pending until close
+        ctl, auto = _resume(work, slug, 60.0)              # pending until close
         drag(ctl, "prn", np.array([0.0, 0.0, 1.0]), steps=1)
 
         class App:
@@ -225,17 +231,11 @@ def signal_stop(work: Path, rng: random.Random, sig: int) -> tuple[int, int]:
 
 
 def two_writers(work: Path, rng: random.Random) -> tuple[int, int]:
-    p = _patient(work)
-    ctl0 = p.controller()
-    slug = p.records.start_simulation(PID, ctl0, reconstruction_sha256=p.saved.sha256,
-                                      delay=60.0).slug
-    ctl0.close()
+    p, slug = _patient_simulation(work)
     autos, ctls = [], []
     for k in range(2):
-        rec = PatientRecords(work)
-        s = rec.load_simulation(PID, slug)
-        c = EditController.from_session(s, None)
-        autos.append(rec.resume_simulation(PID, slug, c, s, delay=60.0))
+        c, auto = _resume(work, slug, 60.0)
+        autos.append(auto)
         drag(c, "prn", np.array([0.0, 0.0, 0.5 * (k + 1)]), steps=1)
         ctls.append(c)
     barrier = threading.Barrier(2)

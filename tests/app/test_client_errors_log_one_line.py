@@ -5,39 +5,22 @@ does not know) and a typed manoeuvre value outside its range. A traceback means 
 from __future__ import annotations
 
 import logging
-import socket
 import time
 from typing import Any
 from unittest.mock import MagicMock
 
-import msgspec
 import pytest
 import viser
-import websockets.sync.client
 from helpers import wait_for
 
 from naseview.app.guard import guarded_viser_server
+from naseview.app.headless_tab import HeadlessTab
 from naseview.app.panels import Panels
 from naseview.errors import NaseviewError
 
 
-def _send(ws, **message: Any) -> None:
-    ws.send(msgspec.msgpack.encode(message))
-
-
-def _connect(server: viser.ViserServer) -> websockets.sync.client.ClientConnection:
-    port = server.get_port()
-    n = len(server.get_clients())
-    sock = socket.create_connection(("127.0.0.1", port), timeout=10)
-    conn = websockets.sync.client.connect(
-        f"ws://127.0.0.1:{port}/", sock=sock, origin=f"http://127.0.0.1:{port}",
-        subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
-        proxy=None, open_timeout=10, max_size=None, compression=None)
-    _send(conn, type="ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0),
-          position=(0.0, 0.0, 5.0), fov=1.0, near=0.1, far=100.0, image_height=600,
-          image_width=800, look_at=(0.0, 0.0, 0.0), up_direction=(0.0, 1.0, 0.0))
-    wait_for(lambda: len(server.get_clients()) > n, 10, "the client to connect")
-    return conn
+def _send(tab: HeadlessTab, **message: Any) -> None:
+    tab.send(**message)
 
 
 class _Records(logging.Handler):
@@ -73,7 +56,7 @@ def test_hostile_websocket_messages_log_one_line_each(logged) -> None:
     try:
         slider = server.gui.add_slider("s", 0.0, 1.0, 0.1, 0.5)
         u = slider._impl.uuid
-        ws = _connect(server)
+        ws = HeadlessTab(server)
         bad = [dict(type="GuiUpdateMessage", uuid=u, updates={"value": "abc"}),
                dict(type="GuiUpdateMessage", uuid=u, updates={"no_such_field": 1}),
                dict(type="GuiUpdateMessage", uuid=u, updates=5)]
@@ -88,7 +71,7 @@ def test_hostile_websocket_messages_log_one_line_each(logged) -> None:
         assert _tracebacks(logged) == []
         lines = [r.getMessage() for r in logged if r.levelno >= logging.WARNING]
         assert all("\n" not in line for line in lines), lines
-        ws2 = _connect(server)                            # the server is still up
+        ws2 = HeadlessTab(server)                            # the server is still up
         ws2.close()
         ws.close()
     finally:

@@ -8,26 +8,24 @@ A raw websocket client speaks viser's upload protocol (``FileTransferStartUpload
 
 from __future__ import annotations
 
-import socket
 import threading
 import uuid
 from collections.abc import Iterator
 from typing import Any
 
-import msgspec
 import pytest
 import viser
-import websockets.sync.client
 from helpers import wait_for
 
 from naseview.app.guard import guarded_viser_server
+from naseview.app.headless_tab import HeadlessTab
 from naseview.app.upload_limit import MAX_IN_FLIGHT, UploadLimit
 
 PART = 512 * 1024
 
 
-def send(ws, **message: Any) -> None:
-    ws.send(msgspec.msgpack.encode(message))
+def send(ws: HeadlessTab, **message: Any) -> None:
+    ws.send(**message)
 
 
 def start(ws, element: str, name: str, size: int, parts: int) -> str:
@@ -41,21 +39,6 @@ def start(ws, element: str, name: str, size: int, parts: int) -> str:
 def part(ws, element: str, transfer: str, index: int, content: bytes) -> None:
     send(ws, type="FileTransferPart", source_component_uuid=element, transfer_uuid=transfer,
          part_index=index, content=content)
-
-
-def connect(server: viser.ViserServer) -> websockets.sync.client.ClientConnection:
-    port = server.get_port()
-    n = len(server.get_clients())
-    sock = socket.create_connection(("127.0.0.1", port), timeout=10)
-    conn = websockets.sync.client.connect(
-        f"ws://127.0.0.1:{port}/", sock=sock, origin=f"http://127.0.0.1:{port}",
-        subprotocols=[f"viser-v{viser.__version__}"],  # type: ignore[list-item]
-        proxy=None, open_timeout=10, max_size=None, compression=None)
-    send(conn, type="ViewerCameraMessage", wxyz=(1.0, 0.0, 0.0, 0.0),
-         position=(0.0, 0.0, 5.0), fov=1.0, near=0.1, far=100.0, image_height=600,
-         image_width=800, look_at=(0.0, 0.0, 0.0), up_direction=(0.0, 1.0, 0.0))
-    wait_for(lambda: len(server.get_clients()) > n, 10, "the client to connect")
-    return conn
 
 
 def buffered(server: viser.ViserServer) -> int:
@@ -101,7 +84,7 @@ def viewer() -> Iterator[Viewer]:
 
 
 def test_a_viewer_tab_slider_takes_no_upload(viewer: Viewer) -> None:
-    ws = connect(viewer.server)
+    ws = HeadlessTab(viewer.server)
     try:
         target = viewer.tab(0)["slider"]            # a tab's own GUI element
         t = start(ws, target, "x.bin", 40 * PART, 40)
@@ -123,7 +106,7 @@ def test_a_viewer_tab_slider_takes_no_upload(viewer: Viewer) -> None:
 
 
 def test_uploads_in_flight_are_bounded_across_tabs(viewer: Viewer) -> None:
-    tabs = [connect(viewer.server) for _ in range(3)]
+    tabs = [HeadlessTab(viewer.server) for _ in range(3)]
     try:
         buttons = [viewer.tab(i)["button"] for i in range(3)]
         started = [start(ws, b, f"t{i}-{k}.jpg", 50 * 2**20, 100)
