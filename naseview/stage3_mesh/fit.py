@@ -39,7 +39,12 @@ from naseview.stage3_mesh.curve_fractions import (
 )
 from naseview.stage3_mesh.params import RefineParams
 from naseview.stage3_mesh.profile_band import matched_region
-from naseview.stage3_mesh.silhouette import Silhouette, contour_targets, edge_faces
+from naseview.stage3_mesh.silhouette import (
+    Silhouette,
+    contour_targets,
+    edge_faces,
+    same_matches,
+)
 
 
 @dataclass
@@ -181,11 +186,6 @@ def _alternate(model: FaceModel, fr: _FitRows, params: RefineParams, K: int
     return w, sim
 
 
-SILHOUETTE_FIT_FIXED_MM = 1e-3
-"""The fit's silhouette rounds stop once a round matches the same vertices to targets
-within this (mm) of the round before."""
-
-
 def _fit_silhouettes(model: FaceModel, fr: _FitRows, params: RefineParams, K: int,
                      w: np.ndarray, sim: _Similarity, silhouettes: Sequence[Silhouette],
                      landmarks: Mapping[str, np.ndarray]) -> tuple[np.ndarray, _Similarity]:
@@ -211,8 +211,7 @@ def _fit_silhouettes(model: FaceModel, fr: _FitRows, params: RefineParams, K: in
         ids, tg, _ = contour_targets(V, F, silhouettes, band, np.zeros((0, 3)),
                                      params.silhouette_spacing_mm, params.silhouette_max_mm,
                                      ed, params.silhouette_detrend)
-        if not len(ids) or (last is not None and np.array_equal(ids, last[0])
-                            and np.abs(tg - last[1]).max() <= SILHOUETTE_FIT_FIXED_MM):
+        if not len(ids) or same_matches(ids, tg, last):
             break
         last = (ids, tg)
         Vm = ((V - sim.t) @ sim.R) / sim.s                       # the model frame

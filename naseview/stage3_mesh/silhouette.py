@@ -428,6 +428,19 @@ def _detrend(view: Sequence[_Matches], max_mm: float, iterations: int = 10) -> N
             break
 
 
+FIXED_POINT_MM = 1e-3
+"""Silhouette rounds (the fit's and the deformation's) stop once a round's contour
+matches are those of the round before, their targets within this (mm)."""
+
+
+def same_matches(ids: np.ndarray, targets: np.ndarray,
+                 last: tuple[np.ndarray, np.ndarray] | None) -> bool:
+    """Whether the matches (ids (k,), targets (k, 3) mm) are the round before's ``last``:
+    the same vertices, targets within :data:`FIXED_POINT_MM` (the rounds' fixed point)."""
+    return (last is not None and np.array_equal(ids, last[0])
+            and float(np.abs(targets - last[1]).max(initial=0.0)) <= FIXED_POINT_MM)
+
+
 def contour_targets(V: np.ndarray, F: np.ndarray, silhouettes: Sequence[Silhouette],
                     movable: np.ndarray, avoid: np.ndarray, spacing_mm: float,
                     max_mm: float, edge_data: tuple[np.ndarray, np.ndarray] | None = None,

@@ -56,7 +56,12 @@ from naseview.stage3_mesh.fit import BaseFit, fit_face_model
 from naseview.stage3_mesh.params import RefineParams
 from naseview.stage3_mesh.profile_band import matched_region
 from naseview.stage3_mesh.result import RefineResult
-from naseview.stage3_mesh.silhouette import Silhouette, contour_targets, edge_faces
+from naseview.stage3_mesh.silhouette import (
+    Silhouette,
+    contour_targets,
+    edge_faces,
+    same_matches,
+)
 from naseview.stage3_mesh.warp import smooth_warp
 
 UNFOLD_ROUNDS = 8
@@ -258,11 +263,6 @@ def _deform(model: FaceModel, base: np.ndarray, region: np.ndarray, handles: Cor
     return report.V, deformer.region_vertex_ids, deformer, report
 
 
-SILHOUETTE_FIXED_MM = 1e-3
-"""The silhouette rounds stop once a round's contour handles are those of the round
-before, their targets within this (mm): the rounds have reached their fixed point."""
-
-
 def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
                        held: Correspondences, landmarks: Mapping[str, np.ndarray],
                        silhouettes: Sequence[Silhouette],
@@ -291,8 +291,7 @@ def _silhouette_rounds(model: FaceModel, base: np.ndarray, V: np.ndarray,
                                          params.silhouette_spacing_mm,
                                          params.silhouette_max_mm, ed,
                                          params.silhouette_detrend)
-        if not len(ids) or (last is not None and np.array_equal(ids, last[0])
-                            and np.abs(tg - last[1]).max() <= SILHOUETTE_FIXED_MM):
+        if not len(ids) or same_matches(ids, tg, last):
             break                # the same handles again: this round would change nothing
         last = (ids, tg)
         allh = Correspondences(np.r_[held.vertex_ids, ids], np.r_[held.targets, tg],
