@@ -279,7 +279,11 @@ class FaceGlb:
     def nose_glb(self, V: ArrayLike) -> bytes:
         """GLB of the nose part for the face ``V`` (n, 3) mm (only positions and normals
         are packed anew)."""
-        P, N = self.nose_geometry(V)
+        return self.pack_nose(*self.nose_geometry(V))
+
+    def pack_nose(self, P: np.ndarray, N: np.ndarray) -> bytes:
+        """GLB of the nose part with positions ``P`` and normals ``N`` (p, 3) as
+        :meth:`nose_geometry` gives them."""
         return _pack(self._nose, P, N)
 
 

@@ -96,7 +96,7 @@ class NoseNode:
             f"{name}_underlay", (P - UNDERLAY_INSET_MM * N).astype(np.float32),
             parts.nose_faces, color=parts.nose_rgb, flat_shading=False, cast_shadow=False,
             receive_shadow=False)
-        self.handle: viser.GlbHandle = self._send()
+        self.handle: viser.GlbHandle = self._send(P, N)
 
     def _geometry(self) -> tuple[np.ndarray, np.ndarray]:
         """The nose part's positions and normals for the current vertices."""
@@ -104,10 +104,9 @@ class NoseNode:
         V[self._ids] = self._vertices
         return self._parts.nose_geometry(V)
 
-    def _send(self) -> viser.GlbHandle:
-        V = self._base.copy()
-        V[self._ids] = self._vertices
-        return self._scene.add_glb(self._name, self._parts.nose_glb(V),
+    def _send(self, P: np.ndarray, N: np.ndarray) -> viser.GlbHandle:
+        """Replace the GLB with the nose part at positions ``P``, normals ``N``."""
+        return self._scene.add_glb(self._name, self._parts.pack_nose(P, N),
                                    visible=self._visible, cast_shadow=False,
                                    receive_shadow=False)
 
@@ -122,9 +121,9 @@ class NoseNode:
         if V.shape == self._vertices.shape and np.array_equal(V, self._vertices):
             return
         self._vertices = V.copy()
-        P, N = self._geometry()
+        P, N = self._geometry()                  # once for the underlay and the GLB
         self.underlay.vertices = (P - UNDERLAY_INSET_MM * N).astype(np.float32)
-        self.handle = self._send()
+        self.handle = self._send(P, N)
 
     @property
     def visible(self) -> bool:
