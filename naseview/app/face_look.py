@@ -39,12 +39,24 @@ TEXTURE_SIZE = 1024
 
 
 class LookSource(Protocol):
-    """What :func:`face_look` reads of the app (:class:`naseview.app.serve.NaseviewApp`)."""
+    """What :func:`face_look` reads of the app
+    (:class:`naseview.app.naseview_app.NaseviewApp`)."""
 
-    controller: EditController | None
-    case: Case | None
-    cameras: dict[str, Camera]
-    moving: np.ndarray
+    @property
+    def controller(self) -> EditController | None:
+        """The patient's editor (None before a case is open)."""
+
+    @property
+    def case(self) -> Case | None:
+        """The case directory with the photos, when available."""
+
+    @property
+    def cameras(self) -> dict[str, Camera]:
+        """view -> stage-1 camera of the open reconstruction."""
+
+    @property
+    def moving(self) -> np.ndarray:
+        """(K,) ids of the vertices an edit moves (empty: the nose)."""
 
 
 @dataclass(frozen=True)

@@ -270,7 +270,7 @@ class NaseviewApp:
                     screen.close()                    # it went while being built
                     return
                 self.screens[client.client_id] = screen
-                self.patients_panels[client.client_id] = PatientsPanel(self, screen)
+                self.patients_panels[client.client_id] = PatientsPanel(screen)
                 if self.controller is not None:
                     screen.show_case()
                 elif self.start_new_patient and self.controller is None and not patient:
