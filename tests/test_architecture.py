@@ -14,21 +14,24 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "naseview"
 
-# Lower number = lower layer. Core types first, then geometry and face models, the three
-# stages (peers: none imports another), the pipeline, editing/intake/testbed, report, app
-# and the command line.
+# Lower number = lower layer. Core types first (file I/O, then photo files on it), then
+# geometry and face models, the three stages (peers: none imports another), the photo
+# texture (it uses stage 2's background mask), the pipeline (it bakes the texture of its
+# textured exports), editing/intake/testbed, report, app and the command line.
 LAYERS: dict[str, int] = {
-    "errors": 0, "landmarks": 0,
-    "fileio": 1, "camera": 1, "params": 1, "stages": 0,
-    "case": 2, "reconstruction": 2, "meshio": 2,
-    "geometry": 3,
-    "facemodel": 4, "render": 4, "measurements": 4,
-    "stage1_landmarks": 5, "stage2_curves": 5, "stage3_mesh": 5,
-    "pipeline": 6, "texture": 6,
-    "editing": 7, "intake": 7, "testbed": 7,
-    "report": 8, "records": 8,
-    "app": 9,
-    "cli": 10, "__main__": 11,
+    "errors": 0, "landmarks": 0, "stages": 0,
+    "fileio": 1, "camera": 1, "params": 1,
+    "imagefile": 2,
+    "case": 3, "reconstruction": 3, "meshio": 3,
+    "geometry": 4,
+    "facemodel": 5, "render": 5, "measurements": 5,
+    "stage1_landmarks": 6, "stage2_curves": 6, "stage3_mesh": 6,
+    "texture": 7,
+    "pipeline": 8,
+    "editing": 9, "intake": 9, "testbed": 9,
+    "report": 10, "records": 10,
+    "app": 11,
+    "cli": 12, "__main__": 13,
 }
 
 

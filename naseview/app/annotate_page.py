@@ -74,10 +74,11 @@ from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER, VIEW_TITLES, definition
 from naseview.intake.guidance import Guidance
+from naseview.intake.in_progress import InProgress
 from naseview.intake.patients import PatientFolders
 from naseview.intake.photo_check import photo_warning
 from naseview.intake.predict import predict_next
-from naseview.intake.session import AnnotationSession, InProgress, default_case_id
+from naseview.intake.session import AnnotationSession, default_case_id
 from naseview.landmarks import VIEWS
 from naseview.records import PatientRecords
 

@@ -37,9 +37,9 @@ from numpy.typing import ArrayLike
 
 from naseview.app.scene_geometry import split_region
 from naseview.errors import NaseviewError
-from naseview.fileio import image_bytes
 from naseview.geometry.closing import cap_holes, cap_values
 from naseview.geometry.mesh import vertex_normals
+from naseview.imagefile import image_bytes
 from naseview.texture.bake import FaceTexture
 
 SKIN_RGB = (226, 192, 168)
