@@ -25,6 +25,7 @@ import threading
 import time
 from collections.abc import Iterable, Mapping, Sequence
 
+import cv2
 import numpy as np
 import viser
 
@@ -49,8 +50,10 @@ from naseview.app.scene_geometry import (
 )
 from naseview.app.scope import Scope
 from naseview.camera import Camera
+from naseview.case import Case
 from naseview.editing.baseline import Landmarks, Simulation
 from naseview.editing.controller import EditController
+from naseview.errors import NaseviewError
 from naseview.geometry.mesh import vertex_normals
 from naseview.landmarks import CURVE_NAMES
 
@@ -161,6 +164,26 @@ def _icosphere(radius: float) -> tuple[np.ndarray, np.ndarray]:
 
     s = trimesh.creation.icosphere(subdivisions=2, radius=radius)
     return np.asarray(s.vertices), np.asarray(s.faces)
+
+
+def photo_thumbnails(case: Case | None, cameras: Mapping[str, Camera], width: int = 320
+                     ) -> dict[str, np.ndarray]:
+    """view -> (h, ``width``, 3) uint8 RGB thumbnail of each reconstructed view's photo
+    that ``case`` can load (for the camera frustums; none without a case)."""
+    photos: dict[str, np.ndarray] = {}
+    if case is None:
+        return photos
+    for v in cameras:
+        try:
+            image_bgr = case.load_image(v)
+        except NaseviewError:
+            continue
+        h, w = image_bgr.shape[:2]
+        s = width / float(w)
+        small = cv2.resize(image_bgr, (width, max(1, int(round(h * s)))),
+                           interpolation=cv2.INTER_AREA)
+        photos[v] = small[:, :, ::-1].copy()
+    return photos
 
 
 class FaceScene:

@@ -13,7 +13,7 @@ from helpers import GaussianSolver, drag, ict_baseline, landmarks_close, open_ta
 
 from naseview.app.export import mesh_file
 from naseview.app.guard import guarded_viser_server
-from naseview.app.serve import NaseviewApp
+from naseview.app.naseview_app import NaseviewApp
 from naseview.editing.baseline import Baseline
 from naseview.facemodel import load_face_model
 from naseview.meshio import read_mesh
