@@ -1,7 +1,8 @@
 """The served app's downloads: the meshes, landmarks, measurements and session file of
 the open simulation, as (file name, content) for ``send_file_download``.
 
-The bytes come from :mod:`naseview.app.export` (meshes in mm, GLB in metres); the
+The bytes come from :mod:`naseview.app.export` and :mod:`naseview.texture.mesh_files`
+(meshes in mm, GLB in metres); the
 textured and solid meshes, which need the photo texture, are
 :func:`naseview.app.face_look.look_export`'s.
 """
@@ -17,9 +18,9 @@ from naseview.app.export import (
     landmarks_json,
     measurements_csv,
     measurements_json,
-    mesh_file,
 )
 from naseview.editing.controller import EditController
+from naseview.texture.mesh_files import mesh_file
 
 
 def export_file(ctl: EditController, kind: str, fmt: str, case_id: str,
