@@ -129,3 +129,13 @@ def test_only_the_command_line_imports_the_app_entry_point():
            if mod == "naseview.app.serve" and _module_name(path) not in ("naseview.cli",
                                                                          "naseview.app.serve")]
     assert not bad, "imports naseview.app.serve: " + ", ".join(bad)
+
+
+MAX_MODULE_LINES = 700
+"""No module of naseview/ is longer (issue 25): a longer one does more than one job."""
+
+
+def test_no_module_is_over_700_lines():
+    long = {str(p.relative_to(PACKAGE)): n for p in _sources()
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES}
+    assert not long, f"split by job: {long}"
