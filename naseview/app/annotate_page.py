@@ -15,9 +15,10 @@ quick stage 1, paper §3.2, in a background worker), the other remaining ones as
 cyan dots; "Accept the marker" places the landmark there in one click.
 
 "Reconstruct" writes the SPEC §3 case directory (``WORK/<id>/case``, rerunnable with
-``naseview reconstruct``) and opens it in the app (:class:`naseview.app.serve.NaseviewApp`),
-which reconstructs with progress in its panel. Every change is autosaved in
-``WORK/in-progress/<id>/`` and the page offers to resume it after a reload or restart.
+``naseview reconstruct``) and opens it in the app
+(:class:`naseview.app.naseview_app.NaseviewApp`), which reconstructs with progress in its
+panel. Every change is autosaved in ``WORK/in-progress/<id>/`` and the page offers to
+resume it after a reload or restart.
 A new patient always gets a fresh folder; an id typed that another patient has is refused
 with one line, and "Open patient <id>" opens that patient instead, on purpose
 (:class:`naseview.intake.patients.PatientFolders`).
