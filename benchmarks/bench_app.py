@@ -36,7 +36,7 @@ from _shared import use_shared_ict
 from naseview.app.face_look import make_look, set_face_look
 from naseview.app.guard import guarded_viser_server
 from naseview.app.headless_tab import HeadlessTab
-from naseview.app.serve import NaseviewApp
+from naseview.app.naseview_app import NaseviewApp
 from naseview.camera import standard_camera
 from naseview.editing.baseline import Baseline, baseline_from_face_model
 from naseview.facemodel import load_face_model

@@ -21,7 +21,8 @@ import time
 from pathlib import Path
 
 from naseview.app.headless_tab import HeadlessTab
-from naseview.app.serve import demo_case_dir, start_app
+from naseview.app.naseview_app import demo_case_dir
+from naseview.app.serve import start_app
 
 
 def rss_mb() -> float:

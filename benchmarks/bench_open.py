@@ -69,6 +69,7 @@ def open_once(case_dir: Path, model: str | None, profile: cProfile.Profile | Non
               ) -> tuple[float, Phases, dict[str, float]]:
     """Open ``case_dir`` once; (wall seconds, phases, pipeline stage seconds)."""
     import naseview.app.face_look as face_look_module
+    import naseview.app.naseview_app as naseview_app
     import naseview.app.serve as serve
     from naseview.app.headless_tab import HeadlessTab
     from naseview.app.patient_work import PatientWork
@@ -76,14 +77,14 @@ def open_once(case_dir: Path, model: str | None, profile: cProfile.Profile | Non
 
     phases = Phases()
     stages: dict[str, float] = {}
-    undo = [phases.wrap(serve, "baseline_from_pipeline", "baseline from pipeline"),
+    undo = [phases.wrap(naseview_app, "baseline_from_pipeline", "baseline from pipeline"),
             phases.wrap(face_look_module, "make_look", "texture bake"),
-            phases.wrap(serve.NaseviewApp, "_thumbnails", "photo thumbnails"),
-            phases.wrap(serve.NaseviewApp, "_controller_for", "controller"),
+            phases.wrap(naseview_app, "photo_thumbnails", "photo thumbnails"),
+            phases.wrap(naseview_app.NaseviewApp, "_controller_for", "controller"),
             phases.wrap(Screen, "show_case", "tab scene"),
             phases.wrap(PatientWork, "reconstructed", "save reconstruction"),
             phases.wrap(PatientWork, "attach", "autosave attach")]
-    original_reconstruct = serve.reconstruct
+    original_reconstruct = naseview_app.reconstruct
 
     def reconstruct(*args: Any, **kwargs: Any) -> Any:
         report = args[4] if len(args) > 4 else kwargs.get("progress")
@@ -101,14 +102,14 @@ def open_once(case_dir: Path, model: str | None, profile: cProfile.Profile | Non
         finally:
             phases.add("pipeline (stages 1-3)", time.perf_counter() - t)
 
-    serve.reconstruct = reconstruct  # type: ignore[assignment]
-    original_install = serve.NaseviewApp._install
+    naseview_app.reconstruct = reconstruct
+    original_install = naseview_app.NaseviewApp._install
     if profile is not None:              # the job thread's work after the pipeline
         def install(self: Any, *args: Any, **kwargs: Any) -> Any:
             assert profile is not None
             return profile.runcall(original_install, self, *args, **kwargs)
-        serve.NaseviewApp._install = install  # type: ignore[method-assign]
-    original_factory = serve._default_solver_factory
+        naseview_app.NaseviewApp._install = install  # type: ignore[method-assign]
+    original_factory = naseview_app._default_solver_factory
     try:
         t0 = time.perf_counter()
         server, app = serve.start_app(case_dir, port=0, model=model)
@@ -124,9 +125,9 @@ def open_once(case_dir: Path, model: str | None, profile: cProfile.Profile | Non
         tab.close()
         server.stop()
     finally:
-        serve.reconstruct = original_reconstruct  # type: ignore[assignment]
-        serve.NaseviewApp._install = original_install  # type: ignore[method-assign]
-        serve._default_solver_factory = original_factory
+        naseview_app.reconstruct = original_reconstruct
+        naseview_app.NaseviewApp._install = original_install  # type: ignore[method-assign]
+        naseview_app._default_solver_factory = original_factory
         for u in undo:
             u()
     phases.first_end = {k: v - t0 for k, v in phases.first_end.items()}

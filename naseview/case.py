@@ -27,13 +27,11 @@ from naseview.errors import NaseviewError
 from naseview.fileio import (
     atomic_write_bytes,
     atomic_write_json,
-    image_size,
-    read_image,
     read_json,
     resolve_stored_path,
     write_error,
-    write_image,
 )
+from naseview.imagefile import image_size, read_image, write_image
 from naseview.landmarks import ALL_IDS, LANDMARK_IDS, VIEWS
 from naseview.params import PHOTO_SIDE_PX, Range, first_outside, focal_range
 

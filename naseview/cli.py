@@ -87,7 +87,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="base face model: ict, generic or a .npz path (default: ict if "
                         "installed, else generic)")
     s.add_argument("--export", action="append", default=[], choices=["stl", "obj", "glb"],
-                   help="also export face and nose meshes in this format (repeatable)")
+                   help="also export face and nose meshes in this format (repeatable; "
+                        "glb: with the photo texture, as the app's download)")
     s.add_argument("--stages", default="1,2,3",
                    help="stages to run, e.g. 1 or 1,2 (default 1,2,3; 1 is always needed): "
                         + "; ".join(STAGE_TITLES.values()))

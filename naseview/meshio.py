@@ -26,7 +26,8 @@ from typing import NamedTuple
 import numpy as np
 
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_bytes, image_bytes, one_line, read_bytes
+from naseview.fileio import atomic_write_bytes, one_line, read_bytes
+from naseview.imagefile import image_bytes
 
 MESH_FORMATS: tuple[str, ...] = ("ply", "stl", "obj", "glb")
 """File types :func:`export_mesh` writes and :func:`read_mesh` reads (by suffix)."""

@@ -74,6 +74,8 @@ from naseview.stage3_mesh.silhouette import (
     silhouette_from_mask,
 )
 from naseview.stages import STAGE_NAMES
+from naseview.texture.bake import FaceTexture, case_photos, skin_texture
+from naseview.texture.mesh_files import mesh_file
 
 ProgressFn = Callable[[str, float], object]
 """``progress(stage_name, seconds)``, called after each stage."""
@@ -456,18 +458,27 @@ def stored_case_dir(result: PipelineResult, out_dir: str | os.PathLike[str]
 
 
 def output_files(result: PipelineResult, out_dir: str | os.PathLike[str],
-                 export: Iterable[str] = ()) -> dict[str, bytes]:
+                 export: Iterable[str] = (), texture: FaceTexture | None = None
+                 ) -> dict[str, bytes]:
     """File name -> content of the output set of a run, ``reconstruction.json`` last.
 
     ``face.ply`` and ``nose.ply`` (plus ``face.<fmt>`` and ``nose.<fmt>`` for each
-    ``export`` format: stl, obj, glb) when stage 3 made a mesh; ``reconstruction.json``
-    records their SHA-256 (key ``files``) and the case folder relative to ``out_dir``.
+    ``export`` format: stl, obj, glb) when stage 3 made a mesh; the GLBs embed
+    ``texture`` (the face's photo texture, :func:`photo_texture`) when given, as the
+    app's textured download does (:func:`naseview.texture.mesh_files.mesh_file`);
+    ``reconstruction.json`` records their SHA-256 (key ``files``) and the case folder
+    relative to ``out_dir``.
     """
     files: dict[str, bytes] = {}
     if result.face_vertices is not None and result.faces is not None:
         V, F = np.asarray(result.face_vertices), np.asarray(result.faces)
-        Vn, Fn = submesh(V, F, np.asarray(result.nose_vertex_ids))[:2]
+        nose = np.asarray(result.nose_vertex_ids)
+        Vn, Fn = submesh(V, F, nose)[:2]
         for fmt in dict.fromkeys(("ply", *export)):
+            if fmt == "glb" and texture is not None:
+                files["face.glb"] = mesh_file(V, F, "glb", texture=texture)
+                files["nose.glb"] = mesh_file(V, F, "glb", nose, texture=texture)
+                continue
             files[f"face.{fmt}"] = mesh_bytes(V, F, fmt)
             files[f"nose.{fmt}"] = mesh_bytes(Vn, Fn, fmt)
     obj = result.reconstruction.to_json()
@@ -482,13 +493,26 @@ MESH_FILES = tuple(f"{part}.{fmt}" for part in ("face", "nose") for fmt in MESH_
 ...): a run removes those of an earlier run that it does not write again."""
 
 
+def photo_texture(result: PipelineResult, case: Case) -> FaceTexture | None:
+    """The face's texture baked from ``case``'s photos with the stage-1 cameras, as the
+    app bakes it (:func:`naseview.texture.bake.skin_texture`, the same size); None
+    without a stage-3 mesh or when no photo can be baked (logged)."""
+    if result.face_vertices is None or result.faces is None:
+        return None
+    cameras = result.reconstruction.cameras
+    return skin_texture(result.face_vertices, result.faces, cameras,
+                        case_photos(case, cameras))
+
+
 def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
-                  export: Iterable[str] = ()) -> list[Path]:
+                  export: Iterable[str] = (), texture: FaceTexture | None = None
+                  ) -> list[Path]:
     """Write the SPEC §5 outputs of a pipeline run (:func:`output_files`), all or nothing.
 
     Readers see the previous set or the new one, never a mix
     (:func:`naseview.fileio.write_file_set`); meshes of an earlier run that this one does
-    not write (another ``--export``, no stage 3) are removed with the new set.
+    not write (another ``--export``, no stage 3) are removed with the new set. The GLBs
+    embed ``texture`` when given (:func:`output_files`).
 
     Returns:
         the paths written, ``reconstruction.json`` last.
@@ -496,7 +520,8 @@ def write_outputs(result: PipelineResult, out_dir: str | os.PathLike[str],
         NaseviewError: the folder is not writable or the disk is full (the previous
             result is then unchanged).
     """
-    return write_file_set(out_dir, output_files(result, out_dir, export), remove=MESH_FILES)
+    return write_file_set(out_dir, output_files(result, out_dir, export, texture),
+                          remove=MESH_FILES)
 
 
 def check_not_foreign(out_dir: str | os.PathLike[str],
@@ -542,13 +567,18 @@ def reconstruct_command(args: argparse.Namespace) -> int:
 
     result = reconstruct(case, model=getattr(args, "model", None), stages=stages,
                          progress=progress)
-    paths = write_outputs(result, args.output, export=getattr(args, "export", ()) or ())
+    export = list(getattr(args, "export", ()) or ())
+    texture = photo_texture(result, case) if "glb" in export else None
+    paths = write_outputs(result, args.output, export=export, texture=texture)
     sfm = result.sfm
     if sfm is not None:
         print(f"{len(sfm.landmarks)} landmarks, reprojection RMSE "
               f"{sfm.reprojection_rmse_px:.2f} px")
     for w in result.warnings:
         print(f"warning: {w}")
+    if "glb" in export and texture is None and result.face_vertices is not None:
+        print("note: face.glb and nose.glb are untextured (no photo could be baked onto "
+              "the face)")
     for p in paths:
         print(f"wrote {p}")
     return 0

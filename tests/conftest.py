@@ -16,7 +16,8 @@ from helpers import GaussianSolver, ict_baseline, wait_for
 import naseview.app.face_look
 import naseview.report.sources
 from naseview.app.guard import guarded_viser_server
-from naseview.app.serve import NaseviewApp, demo_case_dir, start_app
+from naseview.app.naseview_app import NaseviewApp, demo_case_dir
+from naseview.app.serve import start_app
 from naseview.editing.baseline import Baseline
 from naseview.editing.solver import NoseEditSolver
 

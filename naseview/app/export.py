@@ -1,10 +1,10 @@
-"""File contents the app offers for download: meshes, landmarks, measurements.
+"""File contents the app offers for download: landmarks and measurements.
 
-Meshes: GLB in metres (glTF 2.0), the other types in mm; an optional watertight solid
-for printing (STL) and textured exports (GLB with the PNG embedded, OBJ + MTL + PNG as one
-ZIP). Pure functions returning bytes (the page sends them with ``send_file_download``; the
+Pure functions returning bytes (the page sends them with ``send_file_download``; the
 same bytes can be written with :func:`naseview.fileio.atomic_write_bytes`). Coordinates
-are in the SPEC frame (mm, origin g, +x subject's left, +y up, +z anterior).
+are in the SPEC frame (mm, origin g, +x subject's left, +y up, +z anterior). The mesh
+files (GLB in metres, the others in mm, textured or watertight) are
+:mod:`naseview.texture.mesh_files`', shared with ``naseview reconstruct --export``.
 """
 
 from __future__ import annotations
@@ -12,85 +12,15 @@ from __future__ import annotations
 import csv
 import io
 import json
-import zipfile
 from collections.abc import Collection, Mapping
 from typing import Any
 
 import numpy as np
 
-from naseview.geometry.closing import close_solid
 from naseview.landmarks import LANDMARKS
 from naseview.measurements import MEASUREMENT_INFO, Estimate
-from naseview.meshio import mesh_bytes, textured_obj_files
-from naseview.texture.bake import FaceTexture
 
 FRAME = "SPEC: mm, origin glabella g, +x subject's left, +y up, +z anterior"
-MESH_TYPES: tuple[str, ...] = ("stl", "obj", "ply", "glb")
-
-
-def _select(V: np.ndarray, F: np.ndarray, vertex_ids: np.ndarray | None
-            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The triangles whose corners all lie in ``vertex_ids`` (all when None), compacted:
-    ``(V', F', ids)`` with ``V' = V[ids]``."""
-    if vertex_ids is None:
-        return V, F, np.arange(len(V))
-    keep = np.zeros(len(V), dtype=bool)
-    keep[np.asarray(vertex_ids, dtype=np.int64)] = True
-    F = F[keep[F].all(axis=1)]
-    ids = np.unique(F)
-    remap = np.full(len(V), -1, dtype=np.int64)
-    remap[ids] = np.arange(len(ids))
-    return V[ids], remap[F], ids
-
-
-def mesh_file(V: np.ndarray, F: np.ndarray, file_type: str,
-              vertex_ids: np.ndarray | None = None, *, watertight: bool = False,
-              texture: FaceTexture | None = None,
-              vertex_colors: np.ndarray | None = None) -> bytes:
-    """A mesh file (``stl``, ``obj``, ``ply``, ``glb``) of the face, or of the triangles
-    whose corners all lie in ``vertex_ids`` (e.g. the nose), vertices (N, 3) in mm.
-
-    GLB is written in metres (glTF), the others in mm (:func:`naseview.meshio.mesh_bytes`).
-
-    Args:
-        V: (N, 3) vertices (mm); F: (M, 3) triangles.
-        file_type: one of :data:`MESH_TYPES`.
-        vertex_ids: keep only these vertices' triangles.
-        watertight: close the holes and the open border into a solid
-            (:func:`naseview.geometry.closing.close_solid`), for printing; ignores the
-            texture.
-        texture: embed the baked texture (GLB only; for OBJ use :func:`textured_obj_zip`);
-            for PLY / OBJ its per-vertex colours are written instead.
-        vertex_colors: (N, 3) uint8 RGB per vertex (PLY, OBJ, GLB).
-    """
-    V = np.asarray(V, dtype=np.float64)
-    F = np.asarray(F, dtype=np.int64)
-    V, F, ids = _select(V, F, vertex_ids)
-    colors = None if vertex_colors is None else np.asarray(vertex_colors)[ids]
-    if watertight:
-        V, F = close_solid(V, F)
-        return mesh_bytes(V, F, file_type)
-    if texture is not None:
-        if file_type == "glb":
-            return mesh_bytes(V, F, file_type, colors, uv=texture.uv[ids],
-                              texture=texture.image)
-        if colors is None and file_type != "stl":
-            colors = texture.vertex_colors[ids]
-    return mesh_bytes(V, F, file_type, colors)
-
-
-def textured_obj_zip(V: np.ndarray, F: np.ndarray, texture: FaceTexture,
-                     vertex_ids: np.ndarray | None = None, name: str = "face") -> bytes:
-    """One ZIP download of a textured OBJ: ``name.obj`` (mm), ``name.mtl``, ``name.png``
-    (:func:`naseview.meshio.textured_obj_files`), of the face or of ``vertex_ids``'
-    triangles."""
-    V, F, ids = _select(np.asarray(V, np.float64), np.asarray(F, np.int64), vertex_ids)
-    files = textured_obj_files(V, F, texture.uv[ids], texture.image, name)
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
-        for fname, data in files.items():
-            z.writestr(fname, data)
-    return buf.getvalue()
 
 
 def _vec(p: np.ndarray) -> list[float]:

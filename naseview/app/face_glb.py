@@ -6,7 +6,7 @@ the face ``V`` (n, 3) mm (SPEC frame, +y up), ``F`` (m, 3), is first hole-capped
 (:func:`naseview.geometry.closing.cap_holes`: the eye and mouth openings show the photo's
 eyes and mouth, as the texture was baked, not black sockets), then split into the
 triangles touching the moving region (the *nose part*) and the rest
-(:func:`naseview.app.scene.split_region`). Normals are computed once on the WHOLE capped
+(:func:`naseview.app.scene_geometry.split_region`). Normals are computed once on the WHOLE capped
 face; on an update only the moving vertices' normals are recomputed (every triangle
 touching them lies in the nose part), while the part's border vertices — shared with the
 rest, never moving — keep the whole-face normals the rest was sent with, so both parts
@@ -35,10 +35,11 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike
 
+from naseview.app.scene_geometry import split_region
 from naseview.errors import NaseviewError
-from naseview.fileio import image_bytes
 from naseview.geometry.closing import cap_holes, cap_values
 from naseview.geometry.mesh import vertex_normals
+from naseview.imagefile import image_bytes
 from naseview.texture.bake import FaceTexture
 
 SKIN_RGB = (226, 192, 168)
@@ -56,13 +57,6 @@ their light, so the viewer's lights add only enough shading to read the shape.""
 
 _GLTF_FLOAT, _GLTF_UINT = 5126, 5125
 _ARRAY, _ELEMENTS = 34962, 34963
-
-
-def _split(F: np.ndarray, region: np.ndarray, n: int
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    # one home: the scene's split (imported lazily: scene imports this module)
-    from naseview.app.scene import split_region
-    return split_region(F, region, n)
 
 
 def _pad4(b: bytes, fill: bytes = b"\0") -> bytes:
@@ -218,7 +212,7 @@ class FaceGlb:
         self._cap_rims = [fans[fans[:, 2] == c][:, 1] for c in range(self.n, len(Vc))]
         region = np.asarray(region, dtype=np.int64)
         self.region = region
-        part_ids, part_F, rest_ids, rest_F = _split(Fc, region, len(Vc))
+        part_ids, part_F, rest_ids, rest_F = split_region(Fc, region, len(Vc))
         self.normals_c = vertex_normals(Vc, Fc)
         moving = np.zeros(len(Vc), dtype=bool)
         moving[region] = True

@@ -30,21 +30,35 @@ from naseview.case import Case
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
-from naseview.texture.bake import BakeParams, FaceTexture, skin_texture
+from naseview.texture.bake import BakeParams, FaceTexture, case_photos, skin_texture
+from naseview.texture.mesh_files import mesh_file, textured_obj_zip
 
 log = logging.getLogger(__name__)
 
-TEXTURE_SIZE = 1024
-"""Texels per side of the app's face texture."""
+TEXTURE_SIZE = BakeParams().size
+"""Texels per side of the app's face texture (the bake's default, which
+``naseview reconstruct --export glb`` bakes too)."""
 
 
 class LookSource(Protocol):
-    """What :func:`face_look` reads of the app (:class:`naseview.app.serve.NaseviewApp`)."""
+    """What :func:`face_look` reads of the app
+    (:class:`naseview.app.naseview_app.NaseviewApp`)."""
 
-    controller: EditController | None
-    case: Case | None
-    cameras: dict[str, Camera]
-    moving: np.ndarray
+    @property
+    def controller(self) -> EditController | None:
+        """The patient's editor (None before a case is open)."""
+
+    @property
+    def case(self) -> Case | None:
+        """The case directory with the photos, when available."""
+
+    @property
+    def cameras(self) -> dict[str, Camera]:
+        """view -> stage-1 camera of the open reconstruction."""
+
+    @property
+    def moving(self) -> np.ndarray:
+        """(K,) ids of the vertices an edit moves (empty: the nose)."""
 
 
 @dataclass(frozen=True)
@@ -64,20 +78,6 @@ class FaceLook:
     parts: FaceGlb
     photos: Mapping[str, np.ndarray]
     bake_s: float
-
-
-def case_photos(case: Case | None, cameras: Mapping[str, Camera]) -> dict[str, np.ndarray]:
-    """view -> BGR photo of each reconstructed view the case can load (those it cannot
-    are left out and logged)."""
-    out: dict[str, np.ndarray] = {}
-    if case is None:
-        return out
-    for v in cameras:
-        try:
-            out[v] = case.load_image(v)
-        except NaseviewError as e:
-            log.warning("naseview: photo %s not shown on the face: %s", v, e)
-    return out
 
 
 def make_look(baseline: Baseline, region: np.ndarray, cameras: Mapping[str, Camera],
@@ -148,8 +148,6 @@ def look_export(app: LookSource, kind: str, fmt: str, part: str = "face",
     Raises:
         NaseviewError: nothing open, or a textured export without photos.
     """
-    from naseview.app.export import mesh_file, textured_obj_zip
-
     ctl = app.controller
     if ctl is None:
         raise NaseviewError("nothing to export yet: the reconstruction is not ready")
@@ -169,5 +167,5 @@ def look_export(app: LookSource, kind: str, fmt: str, part: str = "face",
     return f"{stem}-textured.{fmt}", mesh_file(V, base.F, fmt, ids, texture=look.texture)
 
 
-__all__ = ["FaceLook", "LookSource", "TEXTURE_SIZE", "case_photos", "face_look",
+__all__ = ["FaceLook", "LookSource", "TEXTURE_SIZE", "face_look",
            "look_export", "make_look", "prepare_face_look", "set_face_look"]

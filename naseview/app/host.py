@@ -1,10 +1,17 @@
-"""What the app's pages (new patient, patient mode) need from the tab they live in.
+"""What the app's pieces need from the tab they live in: one narrow protocol each.
 
 :class:`naseview.app.screen.Screen` (one browser tab of
-:class:`naseview.app.serve.NaseviewApp`) is the one implementation; the pages see it
-through :class:`AppHost`, so that they do not import the module that builds them. The
-editor, case and photos are the patient's (shared by every tab); the scene, display
-toggles and camera are the tab's own.
+:class:`naseview.app.naseview_app.NaseviewApp`) is the one implementation; the pieces see
+it through these protocols, so that they do not import the module that builds them:
+
+- :class:`AppHost`: the new-patient page (:mod:`naseview.app.annotate_page`) and patient
+  mode (:mod:`naseview.app.patient_mode`);
+- :class:`PatientsHost`: the "Patient's work" section
+  (:class:`naseview.app.patients_panel.PatientsPanel`).
+
+The editor, case and photos are the patient's (shared by every tab); the scene, display
+toggles and camera are the tab's own. What the tab itself needs from the app is
+:class:`naseview.app.screen.ScreenHost`.
 """
 
 from __future__ import annotations
@@ -12,6 +19,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Protocol
 
+import viser
+
+from naseview.app.patient_work import PatientWork
 from naseview.app.scene import FaceScene
 from naseview.case import Case
 from naseview.editing.controller import EditController
@@ -60,3 +70,32 @@ class AppHost(Protocol):
 
     def reset_camera(self) -> None:
         """Frame the nose in this tab."""
+
+
+class PatientsHost(Protocol):
+    """One tab of the served app, as its "Patient's work" section uses it: the patient's
+    kept work and the actions on it, for every tab of the patient (errors are shown in
+    this tab)."""
+
+    @property
+    def client(self) -> viser.ClientHandle:
+        """The tab (the section's widgets live in its scope)."""
+
+    @property
+    def work(self) -> PatientWork:
+        """The open patient's kept work (shared by every tab)."""
+
+    def open(self, path: Path | None) -> None:
+        """Open a patient folder, one of its simulations, or a case directory."""
+
+    def open_patient(self, pid: str, slug: str | None = None) -> None:
+        """Open simulation ``slug`` (default the latest) of patient ``pid``."""
+
+    def new_simulation(self) -> None:
+        """A new simulation of the open patient: its reconstruction without edits."""
+
+    def duplicate_simulation(self) -> None:
+        """A copy of the open simulation as it is now; the copy is opened."""
+
+    def delete_simulation(self) -> Path:
+        """Move the open simulation to the patient's trash; returns where it went."""

@@ -20,7 +20,7 @@ import numpy as np
 import viser
 
 from naseview.app.colormap import colorbar_image
-from naseview.app.export import MESH_TYPES, measurements_markdown
+from naseview.app.export import measurements_markdown
 from naseview.app.gui_value import set_value
 from naseview.app.scope import Scope, notify
 from naseview.app.viewer import VIEW_BUTTONS
@@ -32,6 +32,7 @@ from naseview.measurements import Estimate
 from naseview.stage1_landmarks import SfmParams
 from naseview.stage2_curves import CurveParams
 from naseview.stage3_mesh import RefineParams
+from naseview.texture.mesh_files import MESH_TYPES
 
 log = logging.getLogger(__name__)
 

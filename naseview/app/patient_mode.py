@@ -31,7 +31,8 @@ import viser
 
 from naseview.app.gui_value import set_value
 from naseview.app.host import AppHost
-from naseview.app.scene import FaceScene, blend
+from naseview.app.scene import FaceScene
+from naseview.app.scene_geometry import blend
 from naseview.app.scope import NoticeColor, Scope, clients_of, notify, run_action
 from naseview.camera import DISTANCE_MM
 from naseview.editing.baseline import Baseline

@@ -1,7 +1,7 @@
 """The open patient's kept work, as the app uses it: which patient, its autosave, "Saved".
 
-:class:`PatientWork` is what :class:`naseview.app.serve.NaseviewApp` holds over
-:class:`naseview.records.PatientRecords` (no viser here): a case opened with
+:class:`PatientWork` is what :class:`naseview.app.naseview_app.NaseviewApp` holds
+over :class:`naseview.records.PatientRecords` (no viser here): a case opened with
 ``naseview serve CASE`` or from the new-patient page is a patient of the work folder
 (``$NASEVIEW_WORK_DIR``); opening it finds its saved reconstruction (no pipeline run when
 it was made from the case as it is now) and its latest simulation, reopened with its edits

@@ -5,8 +5,9 @@ work is kept and when it was last saved ("Saved 10:42"), an autosave error in on
 (disk full: the previous save is unchanged), the patient's simulations (choose one to
 open it) with "New simulation", "Rename", "Duplicate" and "Delete" (to the patient's
 trash, after a confirmation), and "All patients" (:class:`PatientList`). The app
-(:class:`naseview.app.serve.NaseviewApp`) builds one per tab and opens what is chosen for
-every tab of the patient: the patient screen and the other tabs follow.
+(:class:`naseview.app.naseview_app.NaseviewApp`) builds one per tab and opens what is
+chosen for every tab of the patient: the patient screen and the other tabs follow. The
+section sees its tab through :class:`naseview.app.host.PatientsHost` only.
 
 :class:`PatientList` is the list itself (newest patient first, each a folder with a
 button per simulation; a click opens that patient and simulation), also shown on the
@@ -20,21 +21,18 @@ import logging
 import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import viser
 
 from naseview.app.gui_value import set_value
+from naseview.app.host import PatientsHost
 from naseview.app.markdown_text import markdown_text
 from naseview.app.patient_work import clock
 from naseview.app.scope import notify
 from naseview.errors import NaseviewError
 from naseview.intake.patients import PatientFolders
 from naseview.records import PatientSummary
-
-if TYPE_CHECKING:
-    from naseview.app.screen import Screen
-    from naseview.app.serve import NaseviewApp
 
 log = logging.getLogger(__name__)
 
@@ -153,14 +151,13 @@ class PatientsPanel:
     """"Patient's work" in one tab's panel (module docstring).
 
     Args:
-        app: the served app (its :class:`~naseview.app.patient_work.PatientWork`).
-        screen: the tab.
+        host: the tab (its patient's :class:`~naseview.app.patient_work.PatientWork`
+            and the actions on it).
     """
 
-    def __init__(self, app: NaseviewApp, screen: Screen) -> None:
-        self.app = app
-        self.screen = screen
-        self.client = screen.client
+    def __init__(self, host: PatientsHost) -> None:
+        self.app = host
+        self.client = host.client
         self.closed = False
         gui = self.client.gui
         self._slugs: dict[str, str] = {}
@@ -187,15 +184,16 @@ class PatientsPanel:
                                               hint="Move this simulation to the patient's "
                                                    "trash")
             with gui.add_folder("All patients", expand_by_default=False):
-                self.list = PatientList(gui, app.work.patients, app.work.records.folders,
+                work = self.app.work
+                self.list = PatientList(gui, work.patients, work.records.folders,
                                         self._open_path)
         self.simulation.on_update(self._user(self._on_choose))
         self.rename_btn.on_click(self._user(lambda e: self.rename(str(self.name.value))))
-        self.new_btn.on_click(self._user(lambda e: self.app.new_simulation(self.screen)))
+        self.new_btn.on_click(self._user(lambda e: self.app.new_simulation()))
         self.dup_btn.on_click(self._user(lambda e: self.duplicate()))
         self.del_btn.on_click(self._user(lambda e: self.confirm_delete()))
-        app.work.on_change.append(self.refresh)
-        app.work.on_list.append(self.refresh_list)
+        self.app.work.on_change.append(self.refresh)
+        self.app.work.on_list.append(self.refresh_list)
         self.refresh()
 
     def _user(self, fn: Callable[[Any], object]) -> Callable[[Any], None]:
@@ -217,7 +215,7 @@ class PatientsPanel:
         notify(self.client, "naseview", body, color, seconds=8.0)
 
     def _open_path(self, path: Path) -> None:
-        self.app.open(path, asker=self.screen)
+        self.app.open(path)
 
     # actions
     def _on_choose(self, event: Any) -> None:
@@ -225,7 +223,7 @@ class PatientsPanel:
         work = self.app.work
         if slug is None or work.patient_id is None or slug == work.slug:
             return
-        self.app.open_patient(work.patient_id, slug, asker=self.screen)
+        self.app.open_patient(work.patient_id, slug)
 
     def rename(self, name: str) -> None:
         info = self.app.work.rename(name)
@@ -233,7 +231,7 @@ class PatientsPanel:
 
     def duplicate(self) -> None:
         name = self.app.work.autosave.name if self.app.work.autosave else ""
-        self.app.duplicate_simulation(self.screen)
+        self.app.duplicate_simulation()
         self.notify(f"Continuing in a copy of {name}.")
 
     def confirm_delete(self) -> None:
@@ -250,7 +248,7 @@ class PatientsPanel:
 
         def delete(event: Any) -> None:
             modal.close()
-            where = self.app.delete_simulation(self.screen)
+            where = self.app.delete_simulation()
             self.notify(f"{auto.name} moved to {where.parent}.")
 
         yes.on_click(self._user(delete))

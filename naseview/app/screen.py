@@ -4,9 +4,11 @@ viser gives every tab (one websocket connection) a client scope; a :class:`Scree
 everything of that tab there (:mod:`naseview.app.scope`), so what one tab shows, selects or
 presents never reaches another, and a reload is a new tab with fresh defaults. The case,
 the editor and the background jobs are the patient's, held once by
-:class:`naseview.app.serve.NaseviewApp`: every tab's :class:`FaceScene` subscribes to the
-one :class:`EditController`, so an edit, Undo, Redo or Reset in any tab shows in all of
-them.
+:class:`naseview.app.naseview_app.NaseviewApp`, which a screen sees through
+:class:`ScreenHost` only: every tab's :class:`FaceScene` subscribes to the one
+:class:`EditController`, so an edit, Undo, Redo or Reset in any tab shows in all of them.
+The pieces of the tab see the screen through their own protocols
+(:mod:`naseview.app.host`).
 
 The *patient screen* is a tab opened from the surgeon's link
 (:func:`patient_screen_url`): it connects on :data:`PATIENT_SCREEN_PATH` and starts in
@@ -24,15 +26,16 @@ import logging
 import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import viser
 
 from naseview.app.annotate_page import AnnotatePage
 from naseview.app.colormap import nice_limit, signed_displacement
-from naseview.app.face_look import face_look, look_export
+from naseview.app.face_look import LookSource, face_look, look_export
 from naseview.app.gui_value import set_value
+from naseview.app.landmark_diagrams import LandmarkDiagrams
 from naseview.app.panels import (
     Panels,
     annotate_photo,
@@ -41,6 +44,7 @@ from naseview.app.panels import (
     residual_markdown,
 )
 from naseview.app.patient_mode import PatientMode
+from naseview.app.patient_work import PatientWork
 from naseview.app.photo_sim import PhotoSimulation, SimInputs, sim_inputs
 from naseview.app.scene import NOSE, SKIN, FaceScene
 from naseview.app.scope import NoticeColor, notify, run_action
@@ -58,10 +62,10 @@ from naseview.editing.baseline import Baseline, Simulation
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
 from naseview.landmarks import VIEWS
+from naseview.measurements import Estimate
+from naseview.stage2_curves import CurveParams
+from naseview.stage3_mesh import RefineParams
 from naseview.texture.bake import FaceTexture
-
-if TYPE_CHECKING:
-    from naseview.app.serve import NaseviewApp
 
 log = logging.getLogger(__name__)
 
@@ -114,17 +118,70 @@ def patient_screen_url(host: str) -> str:
     return f"/?screen=patient&websocket=ws://{host}{PATIENT_SCREEN_PATH}"
 
 
+class ScreenHost(LookSource, Protocol):
+    """What a :class:`Screen` needs from the served app: the patient's case, editor,
+    settings and jobs, shared by every tab (read-only here), and the actions a tab asks
+    for (``asker``: the tab that gets the errors)."""
+
+    @property
+    def server(self) -> viser.ViserServer: ...
+    @property
+    def case_id(self) -> str: ...
+    @property
+    def credit(self) -> str: ...
+    @property
+    def work(self) -> PatientWork: ...
+    @property
+    def work_dir(self) -> Path: ...
+    @property
+    def editable(self) -> list[str]: ...
+    @property
+    def photos(self) -> dict[str, np.ndarray]: ...
+    @property
+    def curve_params(self) -> CurveParams: ...
+    @property
+    def refine_params(self) -> RefineParams: ...
+    @property
+    def interactive_iterations(self) -> int: ...
+    @property
+    def edit_help(self) -> str: ...
+    @property
+    def photos_note(self) -> str: ...
+    @property
+    def suspect_messages(self) -> list[str]: ...
+    @property
+    def calliper_inputs(self) -> set[str]: ...
+    @property
+    def estimated(self) -> dict[str, Estimate]: ...
+    @property
+    def diagrams(self) -> LandmarkDiagrams: ...
+
+    def open(self, path: Path | None, asker: Screen | None = None) -> None: ...
+    def open_patient(self, pid: str, slug: str | None = None,
+                     asker: Screen | None = None) -> None: ...
+    def new_simulation(self, asker: Screen | None = None) -> None: ...
+    def duplicate_simulation(self, asker: Screen | None = None) -> None: ...
+    def delete_simulation(self, asker: Screen | None = None) -> Path: ...
+    def annotated_elsewhere(self, folder: Path, screen: Screen) -> bool: ...
+    def set_symmetric(self, on: bool) -> None: ...
+    def recompute(self, asker: Screen | None = None) -> None: ...
+    def params_changed(self, stage: str, asker: Screen | None = None) -> None: ...
+    def download(self, client: viser.ClientHandle | None, kind: str, fmt: str,
+                 **kw: str) -> None: ...
+
+
 class Screen:
     """One browser tab of ``app``: panels, scene, patient mode and new-patient page in the
     tab's client scope; the editor and case are ``app``'s.
 
     Args:
-        app: the served app (case, editor, jobs shared by every tab).
+        app: the served app (case, editor, jobs shared by every tab), as
+            :class:`ScreenHost`.
         client: the tab.
         patient_screen: the tab is the patient screen (starts in patient mode).
     """
 
-    def __init__(self, app: NaseviewApp, client: viser.ClientHandle,
+    def __init__(self, app: ScreenHost, client: viser.ClientHandle,
                  patient_screen: bool = False) -> None:
         self.app = app
         self.client = client
@@ -158,7 +215,7 @@ class Screen:
 
     def _camera_moved(self) -> None:
         """The tab's view changed: lay the landmark labels out again once it rests
-        (0.2 s), for what this view sees (:func:`naseview.app.scene.label_layout`)."""
+        (0.2 s), for what this view sees (:func:`naseview.app.scene_geometry.label_layout`)."""
         if self._label_timer is not None:
             self._label_timer.cancel()
         t = threading.Timer(0.2, self._layout_labels)
@@ -236,6 +293,23 @@ class Screen:
     def open(self, path: Path | None) -> None:
         """Open ``path`` for the patient (every tab follows); errors show here."""
         self.app.open(path, asker=self)
+
+    # what the "Patient's work" section reads (PatientsHost)
+    @property
+    def work(self) -> PatientWork:
+        return self.app.work
+
+    def open_patient(self, pid: str, slug: str | None = None) -> None:
+        self.app.open_patient(pid, slug, asker=self)
+
+    def new_simulation(self) -> None:
+        self.app.new_simulation(asker=self)
+
+    def duplicate_simulation(self) -> None:
+        self.app.duplicate_simulation(asker=self)
+
+    def delete_simulation(self) -> Path:
+        return self.app.delete_simulation(asker=self)
 
     # the case
     def show_case(self, keep_camera: bool = False) -> None:
@@ -571,5 +645,5 @@ class Screen:
             self.released.set()
 
 
-__all__ = ["PATIENT_SCREEN_PATH", "Screen", "connection_host", "connection_path",
+__all__ = ["PATIENT_SCREEN_PATH", "Screen", "ScreenHost", "connection_host", "connection_path",
            "nose_view", "patient_screen_url"]

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from naseview.camera import DISTANCE_MM, STANDARD_VIEWS, Camera, look_at, standard_camera
 from naseview.errors import NaseviewError
-from naseview.fileio import image_bytes
+from naseview.imagefile import image_bytes
 from naseview.render import rasterize
 from naseview.texture.bake import FaceTexture
 from naseview.texture.views import render_textured

@@ -34,7 +34,8 @@ import numpy as np
 
 from naseview.case import parse_scale_key
 from naseview.errors import NaseviewError
-from naseview.fileio import image_header, one_line, resolve_stored_path, stored_path
+from naseview.fileio import one_line, resolve_stored_path, stored_path
+from naseview.imagefile import image_header
 from naseview.intake.click_order import VIEW_ORDER
 from naseview.intake.photos import MAX_SIDE_PX, PhotoInfo
 from naseview.landmarks import VIEW_LANDMARKS, VIEWS

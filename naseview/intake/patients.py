@@ -53,13 +53,8 @@ from pathlib import Path
 from naseview.errors import NaseviewError
 from naseview.fileio import one_line
 from naseview.intake.annotation_file import safe_case_id
-from naseview.intake.session import (
-    AnnotationSession,
-    InProgress,
-    default_case_id,
-    default_work_dir,
-    list_in_progress,
-)
+from naseview.intake.in_progress import InProgress, list_in_progress
+from naseview.intake.session import AnnotationSession, default_case_id, default_work_dir
 
 RESERVED_NAMES = frozenset({"in-progress", "index.sqlite", "index.sqlite-wal",
                             "index.sqlite-shm", "index.sqlite-journal"})

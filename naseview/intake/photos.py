@@ -2,7 +2,7 @@
 
 :func:`decode_photo` turns JPEG/PNG bytes into (H, W, 3) uint8 BGR with the EXIF
 orientation applied (OpenCV ``IMREAD_COLOR`` does that) through
-:func:`naseview.fileio.decode_image`, which refuses a declared size over its pixel limit
+:func:`naseview.imagefile.decode_image`, which refuses a declared size over its pixel limit
 before decoding (a decompression bomb), the longest side capped at
 :data:`MAX_SIDE_PX` (clicks are in the pixels of the *stored* photo, SPEC §2), and
 :func:`encode_photo` re-encodes the pixels only, so no EXIF, GPS, maker notes, text chunks
@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 
 from naseview.errors import NaseviewError
-from naseview.fileio import decode_image
+from naseview.imagefile import decode_image
 
 MAX_SIDE_PX = 2048
 """Photos whose longest side exceeds this are downscaled to it at intake (px)."""
@@ -120,7 +120,7 @@ def decode_photo(data: bytes, name: str = "photo", max_side: int = MAX_SIDE_PX
         (H, W, 3) uint8 BGR and the (width, height) before downscaling.
     Raises:
         NaseviewError: empty, too large, not a JPEG/PNG (HEIC gets its own hint), over
-            :data:`naseview.fileio.MAX_IMAGE_PIXELS` (read from the header, before
+            :data:`naseview.imagefile.MAX_IMAGE_PIXELS` (read from the header, before
             decoding: a decompression bomb costs nothing), or unreadable.
     """
     if not data:

@@ -19,7 +19,10 @@ here):
 - **Guidance** (:mod:`naseview.intake.guidance`): hints from a quick stage 1 (paper §3.2);
 - **Output**: :meth:`AnnotationSession.write_case` writes the SPEC §3 case directory with
   :func:`naseview.case.write_case`, ready for ``naseview reconstruct``: all or nothing,
-  and never over a case another session wrote.
+  and never over a case another session wrote (:mod:`naseview.intake.case_writer`).
+
+The unfinished annotations of a work folder are listed by
+:func:`naseview.intake.in_progress.list_in_progress`.
 
 Example
 -------
@@ -38,11 +41,8 @@ import logging
 import math
 import os
 import re
-import shutil
-import tempfile
 import threading
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -50,16 +50,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from naseview.case import Case, View, parse_scale_key
-from naseview.case import write_case as _write_case
 from naseview.errors import NaseviewError
-from naseview.fileio import (
-    atomic_write_bytes,
-    atomic_write_json,
-    folder_lock,
-    one_line,
-    read_image,
-    read_json,
-)
+from naseview.fileio import atomic_write_bytes, atomic_write_json, one_line, read_json
+from naseview.imagefile import read_image
 from naseview.intake.annotation_file import (
     ANNOTATION_FILE,
     ANNOTATION_FORMAT,
@@ -71,6 +64,7 @@ from naseview.intake.annotation_file import (
     parse_annotation,
     safe_case_id,
 )
+from naseview.intake.case_writer import write_case_dir
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
 from naseview.intake.guidance import HINT_MIN_CLICKS, Guidance, quick_stage1
 from naseview.intake.photos import PhotoInfo, decode_photo, encode_photo, photo_kind
@@ -665,120 +659,11 @@ class AnnotationSession:
         case = self.to_case()
         out = Path(out_dir)
         with self._lock:
-            _write_case_dir(case, out, self.owns)
+            write_case_dir(case, out, self.owns)
             with self._edit():
                 self.case_dir = out
         return out / "case.json"
 
 
-def _taken(out: Path) -> NaseviewError:
-    return NaseviewError(f"{out}: patient {out.parent.name} exists (another patient's case "
-                         "is already there); choose a different case id (nothing was "
-                         "overwritten; this patient's photos and clicks are kept)")
-
-
-def _write_case_dir(case: Case, out: Path, owns: Callable[[Path], bool]) -> None:
-    """Write ``case`` to ``out`` through a temporary sibling folder and a rename (see
-    :meth:`AnnotationSession.write_case`); ``owns(out)`` says whether ``out`` may be
-    replaced.
-
-    The whole check-and-write holds :func:`~naseview.fileio.folder_lock` of the patient
-    folder (``out``'s parent): two "Reconstruct" presses for one new id (two tabs, two
-    servers) take turns, so the second sees the first one's case and is refused instead
-    of replacing it (or losing its temporary folder to the first one's clean-up)."""
-    parent = out.parent
-    try:
-        parent.mkdir(parents=True, exist_ok=True)
-    except OSError as e:
-        raise NaseviewError(f"{out}: cannot write the case here ({one_line(e)}); choose "
-                            "a writable work folder (NASEVIEW_WORK_DIR)") from None
-    with folder_lock(parent):
-        _write_case_dir_locked(case, out, owns)
-
-
-def _write_case_dir_locked(case: Case, out: Path, owns: Callable[[Path], bool]) -> None:
-    parent = out.parent
-    try:
-        for p in parent.iterdir():       # leftovers of an interrupted write of this case
-            if re.fullmatch(rf"\.{re.escape(out.name)}\.\w+\.(tmp|old)", p.name) \
-                    and p.is_dir() and not p.is_symlink():
-                shutil.rmtree(p, ignore_errors=True)
-        if not owns(out):
-            raise _taken(out)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=parent))
-    except OSError as e:
-        raise NaseviewError(f"{out}: cannot write the case here ({one_line(e)}); choose "
-                            "a writable work folder (NASEVIEW_WORK_DIR)") from None
-    try:
-        _write_case(case, tmp)
-        if out.exists():
-            old = parent / f".{out.name}.{new_uid()}.old"
-            os.rename(out, old)
-            os.rename(tmp, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.rename(tmp, out)          # fails if another writer just took ``out``
-    except OSError as e:
-        shutil.rmtree(tmp, ignore_errors=True)
-        if out.exists() and not owns(out):
-            raise _taken(out) from None
-        raise NaseviewError(f"{out}: could not write the case ({one_line(e)}); free some "
-                            "disk space and press Reconstruct again") from None
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-
-
-@dataclass(frozen=True)
-class InProgress:
-    """An annotation found under the in-progress folder (:func:`list_in_progress`).
-
-    Attributes:
-        folder: its folder.
-        case_id: its case id (the folder name when the file does not give one).
-        clicks: number of clicks.
-        updated: time of the last change (ISO 8601), ``""`` if unknown.
-        finished: its case was written (``case_dir`` set).
-        problem: ``None``, or the one-line error that :meth:`AnnotationSession.open`
-            raises for it (damaged or hand-edited out of range).
-    """
-
-    folder: Path
-    case_id: str
-    clicks: int
-    updated: str
-    finished: bool
-    problem: str | None = None
-
-
-def list_in_progress(root: str | os.PathLike[str]) -> list[InProgress]:
-    """The annotations under ``root`` (folders holding ``annotation.json``), newest first;
-    each is validated like :meth:`AnnotationSession.open` (a damaged one is listed with
-    its :attr:`InProgress.problem`)."""
-    root = Path(root)
-    out: list[InProgress] = []
-    if not root.is_dir():
-        return out
-    for p in sorted(root.iterdir()):
-        f = p / ANNOTATION_FILE
-        if not f.is_file():
-            continue
-        try:
-            st = parse_annotation(read_json(f), f, p)
-        except NaseviewError as e:
-            obj: Any = None
-            with contextlib.suppress(NaseviewError):
-                obj = read_json(f)
-            cid = obj.get("id") if isinstance(obj, dict) else None
-            if not (isinstance(cid, str) and cid and safe_case_id(cid) == cid):
-                cid = p.name
-            out.append(InProgress(p, cid, 0, "", False, str(e)))
-            continue
-        out.append(InProgress(p, st.case_id, sum(len(c) for c in st.clicks.values()),
-                              st.updated, st.case_dir is not None))
-    out.sort(key=lambda a: a.updated, reverse=True)
-    return out
-
-
-__all__ = ["ANNOTATION_FILE", "ANNOTATION_FORMAT", "AnnotationSession", "InProgress",
-           "default_case_id", "default_work_dir", "list_in_progress"]
+__all__ = ["ANNOTATION_FILE", "ANNOTATION_FORMAT", "AnnotationSession", "default_case_id",
+           "default_work_dir"]

@@ -167,7 +167,7 @@ def error_map_png(path: str | os.PathLike[str], truth_V: np.ndarray, truth_F: np
     coloured by its distance to the aligned reconstruction (grey outside the SPEC §6 nose
     region, cavities included), from
     the front, the left profile and below, with a colour bar in mm. Returns the path."""
-    from naseview.fileio import write_image
+    from naseview.imagefile import write_image
 
     tV = np.asarray(truth_V, float)
     tF = np.asarray(truth_F, np.int64)

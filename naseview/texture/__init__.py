@@ -7,5 +7,7 @@ the photos themselves.
   (:class:`FaceTexture`);
 - :mod:`naseview.texture.composite` — the edited face rendered back into a photo ("after"
   photo), before/after blend and ghost;
-- :mod:`naseview.texture.views` — textured renders of standard clinical views (PNG).
+- :mod:`naseview.texture.views` — textured renders of standard clinical views (PNG);
+- :mod:`naseview.texture.mesh_files` — mesh files of the face with its texture (the app's
+  downloads and ``naseview reconstruct --export glb``).
 """

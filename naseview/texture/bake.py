@@ -48,6 +48,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from naseview.camera import Camera
+from naseview.case import Case
 from naseview.errors import NaseviewError
 from naseview.geometry.closing import cap_holes, cap_values
 from naseview.geometry.mesh import face_normals, vertex_normals
@@ -471,6 +472,21 @@ def bake_texture(V: ArrayLike, F: ArrayLike, cameras: Mapping[str, Camera],
     total = max(float(wsum.sum()), 1e-12)
     return FaceTexture(plan.uv.copy(), image, coverage, vcol.astype(np.uint8), gains,
                        {v: float(weights[v].sum()) / total for v in views})
+
+
+def case_photos(case: Case | None, cameras: Mapping[str, Camera]) -> dict[str, np.ndarray]:
+    """view -> (H, W, 3) uint8 BGR photo of each view in ``cameras`` that ``case`` can
+    load (those it cannot are left out and logged: the face is baked from the others);
+    empty without a case."""
+    out: dict[str, np.ndarray] = {}
+    if case is None:
+        return out
+    for v in cameras:
+        try:
+            out[v] = case.load_image(v)
+        except NaseviewError as e:
+            log.warning("naseview: photo %s not shown on the face: %s", v, e)
+    return out
 
 
 def skin_texture(V: ArrayLike, F: ArrayLike, cameras: Mapping[str, Camera],

@@ -22,9 +22,9 @@ from numpy.typing import ArrayLike
 
 from naseview.camera import Camera, standard_camera
 from naseview.errors import NaseviewError
-from naseview.fileio import image_bytes
 from naseview.geometry.closing import cap_holes, cap_values
 from naseview.geometry.mesh import vertex_normals
+from naseview.imagefile import image_bytes
 from naseview.render import rasterize, shade_vertices
 from naseview.texture.bake import FaceTexture, sample_image
 from naseview.texture.uv import uv_to_pixels

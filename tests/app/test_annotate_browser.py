@@ -31,7 +31,7 @@ from viser import transforms as vtf
 
 from naseview.app.guard import guarded_viser_server
 from naseview.app.landmark_names import display_name
-from naseview.app.serve import NaseviewApp
+from naseview.app.naseview_app import NaseviewApp
 from naseview.case import read_case
 from naseview.facemodel import load_face_model
 from naseview.reconstruction import read_reconstruction

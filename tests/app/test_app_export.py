@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 from helpers import ict_baseline
 
-from naseview.app.export import landmarks_csv, measurements_csv, measurements_json, mesh_file
+from naseview.app.export import landmarks_csv, measurements_csv, measurements_json
 from naseview.editing.baseline import Baseline
 from naseview.measurements import clinical_measurements
 from naseview.meshio import read_mesh
+from naseview.texture.mesh_files import mesh_file
 
 
 @pytest.fixture(scope="module")
@@ -71,8 +72,8 @@ def test_textured_exports(baseline):
 
     import trimesh
 
-    from naseview.app.export import textured_obj_zip
     from naseview.texture.bake import FaceTexture
+    from naseview.texture.mesh_files import textured_obj_zip
     from naseview.texture.uv import face_uv
 
     uv = face_uv(baseline.V, baseline.F)

@@ -18,7 +18,7 @@ from helpers import drag, landmarks_close, open_tab, wait_for
 
 from naseview.app.guard import guarded_viser_server
 from naseview.app.markdown_text import markdown_text
-from naseview.app.serve import NaseviewApp, demo_case_dir
+from naseview.app.naseview_app import NaseviewApp, demo_case_dir
 from naseview.errors import NaseviewError
 
 MOVE = np.array([0.0, 1.5, 2.0])
@@ -95,7 +95,7 @@ def test_a_case_is_kept_and_reopens_without_reconstructing(served, case, monkeyp
     def no_pipeline(*a, **k):
         raise AssertionError("the saved reconstruction should have been used")
 
-    monkeypatch.setattr("naseview.app.serve.reconstruct", no_pipeline)
+    monkeypatch.setattr("naseview.app.naseview_app.reconstruct", no_pipeline)
     server, app2 = served.start()
     opened(app2, case)
     ctl2 = app2.controller

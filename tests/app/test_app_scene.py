@@ -8,7 +8,8 @@ from helpers import GaussianSolver, drag, ict_baseline
 
 from naseview.app.colormap import diverging_colors, nice_limit
 from naseview.app.guard import guarded_viser_server
-from naseview.app.scene import FaceScene, split_region
+from naseview.app.scene import FaceScene
+from naseview.app.scene_geometry import split_region
 from naseview.editing.baseline import Baseline
 from naseview.editing.controller import EditController
 

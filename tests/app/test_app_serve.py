@@ -11,14 +11,14 @@ import numpy as np
 import pytest
 from helpers import GaussianSolver, drag, ict_baseline, landmarks_close, open_tab
 
-from naseview.app.export import mesh_file
 from naseview.app.guard import guarded_viser_server
-from naseview.app.serve import NaseviewApp
+from naseview.app.naseview_app import NaseviewApp
 from naseview.editing.baseline import Baseline
 from naseview.facemodel import load_face_model
 from naseview.meshio import read_mesh
 from naseview.reconstruction import read_reconstruction, write_reconstruction
 from naseview.testbed.synth import synthesize_case
+from naseview.texture.mesh_files import mesh_file
 
 
 @pytest.fixture(scope="module")

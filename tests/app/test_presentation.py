@@ -136,7 +136,7 @@ def test_landmark_labels_hide_unseen_landmarks_and_do_not_overlap(baseline: Base
     landmarks of the right side are hidden (no label); in every standard view the label
     boxes shown do not overlap."""
     from naseview.app.landmark_names import display_name
-    from naseview.app.scene import LABEL_PX, label_layout
+    from naseview.app.scene_geometry import LABEL_PX, label_layout
 
     L = baseline.landmarks
     lift = np.array([0.0, 2.2, 0.0])

@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 from helpers import CHROMIUM, CHROMIUM_FLAGS, browser_or_skip, naseview_serve, wait_for
 
+from naseview.app.naseview_app import demo_case_dir
 from naseview.app.screen import nose_view
-from naseview.app.serve import demo_case_dir
 from naseview.editing.baseline import baseline_from_output_dir
 
 pytestmark = pytest.mark.browser

@@ -28,7 +28,7 @@ from helpers import (
 )
 
 from naseview.app.guard import guarded_viser_server
-from naseview.app.serve import NaseviewApp
+from naseview.app.naseview_app import NaseviewApp
 
 pytestmark = pytest.mark.browser
 

@@ -12,7 +12,8 @@ from helpers import write_projected_case
 from naseview.case import read_case, write_case
 from naseview.cli import main
 from naseview.errors import NaseviewError
-from naseview.fileio import atomic_write_json, write_image
+from naseview.fileio import atomic_write_json
+from naseview.imagefile import write_image
 
 
 def _make_case(root: Path, **overrides: object) -> Path:

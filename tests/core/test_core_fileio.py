@@ -16,7 +16,8 @@ from helpers import write_projected_case
 
 from naseview.cli import main
 from naseview.errors import NaseviewError
-from naseview.fileio import MAX_IMAGE_PIXELS, read_image, read_json
+from naseview.fileio import read_json
+from naseview.imagefile import MAX_IMAGE_PIXELS, read_image
 
 
 def _chunk(kind: bytes, data: bytes) -> bytes:

@@ -16,7 +16,7 @@ from helpers import write_projected_case
 
 from naseview.cli import main
 from naseview.errors import NaseviewError
-from naseview.fileio import decode_image, read_image
+from naseview.imagefile import decode_image, read_image
 from naseview.intake.photos import decode_photo
 
 

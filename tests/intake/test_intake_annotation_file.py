@@ -14,7 +14,8 @@ import pytest
 from helpers import png_bytes
 
 from naseview.errors import NaseviewError
-from naseview.intake.session import AnnotationSession, list_in_progress
+from naseview.intake.in_progress import list_in_progress
+from naseview.intake.session import AnnotationSession
 
 Edit = Callable[[dict[str, Any], Path], None]
 BIG = "<1e999>"

@@ -17,7 +17,8 @@ from naseview.camera import Camera, look_at
 from naseview.case import read_case
 from naseview.errors import NaseviewError
 from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
-from naseview.intake.session import AnnotationSession, list_in_progress
+from naseview.intake.in_progress import list_in_progress
+from naseview.intake.session import AnnotationSession
 from naseview.landmarks import VIEWS
 
 # A plausible nose (mm, SPEC frame, origin g) and a four-camera rig: clicks are exact

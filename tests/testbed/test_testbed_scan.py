@@ -13,7 +13,7 @@ import pytest
 from naseview.case import read_case
 from naseview.cli import main
 from naseview.facemodel import FaceModel, load_face_model
-from naseview.fileio import read_image
+from naseview.imagefile import read_image
 from naseview.landmarks import HELPER_IDS, LANDMARK_IDS
 from naseview.meshio import export_mesh, read_mesh
 from naseview.reconstruction import read_reconstruction

@@ -12,7 +12,8 @@ from naseview.case import read_case
 from naseview.cli import main
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel, load_face_model
-from naseview.fileio import read_image, read_json
+from naseview.fileio import read_json
+from naseview.imagefile import read_image
 from naseview.landmarks import CURVE_VIEWS, HELPER_IDS, LANDMARK_IDS, VIEW_LANDMARKS, VIEWS
 from naseview.meshio import read_mesh
 from naseview.reconstruction import read_reconstruction

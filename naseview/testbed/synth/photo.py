@@ -4,7 +4,7 @@ Gouraud-shaded render (:func:`naseview.render.render_mesh`) with a soft key ligh
 above-left of the camera and a fill light on the right, a uniform backdrop colour (light
 blue, blue, green, grey or white, jittered), a light optical blur (sigma 0.6 px) and
 Gaussian sensor noise of ``image_noise`` grey levels. The photos are written as JPEG
-quality 92 (:func:`naseview.fileio.write_image`).
+quality 92 (:func:`naseview.imagefile.write_image`).
 """
 
 from __future__ import annotations

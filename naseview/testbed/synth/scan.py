@@ -42,8 +42,9 @@ from naseview.case import Case as CaseData
 from naseview.case import View, write_case
 from naseview.errors import NaseviewError
 from naseview.facemodel.meshcurves import curve_paths
-from naseview.fileio import atomic_write_json, one_line, read_image, read_json
+from naseview.fileio import atomic_write_json, one_line, read_json
 from naseview.geometry.mesh import vertex_normals
+from naseview.imagefile import read_image
 from naseview.landmarks import HELPER_IDS, LANDMARK_IDS, VIEWS
 from naseview.measurements import clinical_measurements
 from naseview.meshio import export_mesh, read_mesh, triangulate_polygons
