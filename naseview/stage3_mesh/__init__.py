@@ -7,6 +7,10 @@ One module per step, in the order :func:`refine` (``solve.py``) runs them:
 - ``curve_fractions.py`` - where a sub-landmark sits on a mesh curve (arc-length fraction);
 - ``correspondences.py`` - ad-landmarks to base-mesh vertices, the handles;
 - ``warp.py`` - the smooth bi-Laplacian warp of the base towards them (naseview's addition);
+- ``profile_band.py`` - the glabella-to-upper-lip band the profile photos show (issue 23);
+- ``band_warp.py`` - the face around that band bent onto the profile silhouettes;
+- ``silhouette.py``, ``sightline.py`` - the photos' occluding contours as handles, and the
+  landmarks seen in one photo placed on their lines of sight;
 - ``deform.py`` - :class:`NoseDeformer`: ARAP (eq. 19-20) and cotangent smoothing (eq. 21),
   precomputed once, solved many times;
 - ``result.py`` - :class:`RefineResult`;

@@ -61,6 +61,10 @@ _RANGES: dict[str, tuple[Range, str]] = {
                                                    "the model fit (0: landmarks only)"),
     "fit_silhouette_sigma_mm": _R(0, 50, False, False, "the expected silhouette match "
                                                        "error in the fit, mm"),
+    "band_warp_rounds": _R(0, 20, True, True, "rounds of the band warp onto the profile "
+                                              "silhouettes (0: none)"),
+    "band_warp_max_mm": _R(0, 50, False, False, "the largest band-warp match, mm"),
+    "band_warp_half_width_mm": _R(0, 80, True, False, "the band warp's half-width, mm"),
     "profile_above_g_mm": _R(0, 60, True, False, "the profile band's reach above g, mm"),
     "profile_below_sn_mm": _R(0, 40, True, False, "the profile band's reach below sn, mm"),
     "profile_half_width_mm": _R(0, 60, True, False, "the profile band's half-width, mm"),
@@ -231,6 +235,10 @@ class RefineParams:
             to the evidence, not to the 21 landmark vertices alone (0: landmarks only).
         fit_silhouette_sigma_mm: the expected error of one silhouette match in that fit
             (its rows weigh ``1 / sigma^2`` beside the landmarks' ``fit_sigma_mm``).
+        band_warp_rounds, band_warp_max_mm: on a base whose fit does not match the band
+            (:attr:`profile_band_used` off, the generic face), at most this many rounds
+            of bending the band outside the nose onto the profile silhouettes before ARAP,
+            each match at most this far (:mod:`~naseview.stage3_mesh.band_warp`; 0: none).
         profile_above_g_mm, profile_below_sn_mm, profile_half_width_mm: the profile
             band (:func:`~naseview.stage3_mesh.profile_band.profile_band`): the face near
             the midline from above g (the glabella, read by the nasofrontal angle) to
@@ -294,6 +302,9 @@ class RefineParams:
     outline_curves: tuple[str, ...] = ()
     fit_silhouette_rounds: int = 3
     fit_silhouette_sigma_mm: float = 1.0
+    band_warp_rounds: int = 3
+    band_warp_max_mm: float = 8.0
+    band_warp_half_width_mm: float = 30.0
     profile_above_g_mm: float = 10.0
     profile_below_sn_mm: float = 15.0
     profile_half_width_mm: float = 12.0

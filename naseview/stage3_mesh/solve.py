@@ -13,7 +13,10 @@ each in its own module:
 3. :func:`~naseview.stage3_mesh.warp.smooth_warp` (naseview's addition) - the base bent
    smoothly towards the ad-landmarks; handles it cannot reconcile with their neighbours
    are released from the hard constraints (the ablation,
-   :data:`naseview.testbed.surface.ABLATION_ROWS`, shows why);
+   :data:`naseview.testbed.surface.ABLATION_ROWS`, shows why); then
+   :func:`~naseview.stage3_mesh.band_warp.band_warp` (issue 23) - the face around the
+   profile band outside the nose (upper lip, glabella) bent smoothly onto the profile
+   photos' silhouettes, so the nasolabial angle reads the patient's lip, not the model's;
 4. :class:`~naseview.stage3_mesh.deform.NoseDeformer` - ARAP (eq. 19-20) on the nose region
    with a pinned margin ring and the handles as hard constraints, then cotangent
    smoothing (eq. 21). It stays in the result, ready for the app's re-solves;
@@ -49,6 +52,7 @@ from naseview.geometry.mesh import vertex_adjacency
 from naseview.geometry.region import grow_by_distance
 from naseview.geometry.unfold import unfold
 from naseview.reconstruction import Reconstruction
+from naseview.stage3_mesh.band_warp import band_warp
 from naseview.stage3_mesh.correspondences import Correspondences, correspondences
 from naseview.stage3_mesh.curve_fractions import AdLandmarkTag
 from naseview.stage3_mesh.deform import DeformReport, NoseDeformer, deform_region
@@ -343,6 +347,7 @@ def refine(model: FaceModel, reconstruction: Reconstruction,
                          verified=_verified_landmarks(reconstruction), silhouettes=silhouettes)
     t1 = time.perf_counter()
     base, handles, cw = warped_base(model, fit, landmarks, sub, params)
+    base = band_warp(model, base, landmarks, silhouettes, params)
     t2 = time.perf_counter()
     suspects = _suspect_landmarks(reconstruction)
     handles, slid = slide_far_landmarks(model, base, handles, params, suspects)
