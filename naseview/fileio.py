@@ -38,6 +38,7 @@ import cv2
 import numpy as np
 
 from naseview.errors import NaseviewError
+from naseview.image_data import too_little_data
 
 try:  # POSIX: writers of one folder take turns; elsewhere they are not serialised
     import fcntl
@@ -368,6 +369,8 @@ def image_header(data: bytes, name: str | os.PathLike[str],
         raise _damaged(name, kind.upper(),
                        f"its header declares {width}x{height} px but the file holds only "
                        f"{len(data):,} bytes, fewer than such an image needs")
+    if (why := too_little_data(data, kind, width, height, needed)) is not None:
+        raise _damaged(name, kind.upper(), why)  # a big file, but its pixels are few
     return kind, int(width), int(height)
 
 

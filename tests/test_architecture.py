@@ -18,7 +18,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "naseview"
 # stages (peers: none imports another), the pipeline, editing/intake/testbed, report, app
 # and the command line.
 LAYERS: dict[str, int] = {
-    "errors": 0, "landmarks": 0,
+    "errors": 0, "landmarks": 0, "image_data": 0,
     "fileio": 1, "camera": 1, "params": 1, "stages": 0,
     "case": 2, "reconstruction": 2, "meshio": 2,
     "geometry": 3,
