@@ -103,11 +103,7 @@ def _run_killed(child: Callable[[int], None], kill_after: float,
 def _patient_simulation(work: Path) -> tuple[Patient, str]:
     """A fresh patient and a first simulation of it (no edit): (patient, its slug)."""
     p = _patient(work)
-    ctl0 = p.controller()
-    slug = p.records.start_simulation(PID, ctl0, reconstruction_sha256=p.saved.sha256,
-                                      delay=60.0).slug
-    ctl0.close()
-    return p, slug
+    return p, p.first_simulation()
 
 
 def _resume(work: Path, slug: str, delay: float) -> tuple[EditController, Autosave]:

@@ -13,12 +13,7 @@ ROUNDS = 12
 
 
 def test_two_server_processes_saving_one_simulation_at_once_lose_nothing(patient: Patient):
-    ctl = patient.controller()
-    first = patient.records.start_simulation(patient.pid, ctl, delay=60.0,
-                                             reconstruction_sha256=patient.saved.sha256)
-    slug = first.slug
-    first.close()
-    ctl.close()
+    slug = patient.first_simulation()
     work: Path = patient.records.folders.root
     servers = [RaceServer(), RaceServer()]
     try:
