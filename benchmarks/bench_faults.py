@@ -1,12 +1,14 @@
 """Fault injection on the patients' records (issue 26): processes killed (SIGKILL) at
 random moments of autosave, reconstruction and case writes; stop signals (SIGTERM,
-SIGHUP, SIGINT) on ``naseview serve``; two writers saving one simulation at once.
+SIGHUP, SIGINT) on ``naseview serve``; three tabs of one server editing one simulation at
+once, killed at random moments; two server processes (``tests/records/sim_race.py``)
+saving one simulation at the same instant, the loser told.
 
 Each kill is a forked child (the imports are paid once) working on its own copy of a
 small patient; after the kill the folder is read back as the next start would:
 
 - *lost*: a save the child reported as done (flush returned without an error, or a
-  write returned) that is not on disk;
+  write returned) that is not on disk; of two servers, a loser that was not told;
 - *corrupt*: a file that does not parse, a reconstruction set that cannot be read, a case
   that ``read_case`` refuses.
 
@@ -36,6 +38,7 @@ sys.path[:0] = [str(ROOT), str(ROOT / "tests"), str(ROOT / "tests" / "records"),
 import numpy as np  # noqa: E402
 from helpers import drag, png_bytes  # noqa: E402
 from records_fixtures import Patient, grid_result, write_case_json  # noqa: E402
+from sim_race import RaceServer, race_round  # noqa: E402
 
 import naseview.app.serve as serve  # noqa: E402
 from naseview.case import read_case  # noqa: E402
@@ -100,11 +103,7 @@ def _run_killed(child: Callable[[int], None], kill_after: float,
 def _patient_simulation(work: Path) -> tuple[Patient, str]:
     """A fresh patient and a first simulation of it (no edit): (patient, its slug)."""
     p = _patient(work)
-    ctl0 = p.controller()
-    slug = p.records.start_simulation(PID, ctl0, reconstruction_sha256=p.saved.sha256,
-                                      delay=60.0).slug
-    ctl0.close()
-    return p, slug
+    return p, p.first_simulation()
 
 
 def _resume(work: Path, slug: str, delay: float) -> tuple[EditController, Autosave]:
@@ -230,42 +229,71 @@ def signal_stop(work: Path, rng: random.Random, sig: int) -> tuple[int, int]:
     return int(abs(moved - 1.0) > 1e-6), 0
 
 
-def two_writers(work: Path, rng: random.Random) -> tuple[int, int]:
+def three_tabs_kill(work: Path, rng: random.Random) -> tuple[int, int]:
+    """Three tabs of one server (one controller, one autosave, as the app shares them)
+    edit one simulation at once, each its own landmark, each waiting for its save; the
+    server is killed at a random moment. Lost: a tab told its edit ``n`` was saved whose
+    landmark is behind ``n`` on disk."""
     p, slug = _patient_simulation(work)
-    autos, ctls = [], []
-    for k in range(2):
-        c, auto = _resume(work, slug, 60.0)
-        autos.append(auto)
-        drag(c, "prn", np.array([0.0, 0.0, 0.5 * (k + 1)]), steps=1)
-        ctls.append(c)
-    barrier = threading.Barrier(2)
+    tabs = ("prn", "al_l", "al_r")
 
-    def go(a):
-        barrier.wait()
-        a.flush()
+    def child(w: int) -> None:
+        ctl, auto = _resume(work, slug, rng.choice([0.0, 0.01, 0.05]))
+        lock = threading.Lock()
 
-    ts = [threading.Thread(target=go, args=(a,)) for a in autos]
-    for t in ts:
-        t.start()
-    for t in ts:
-        t.join()
+        def tab(lid: str) -> None:
+            for n in range(1, 10_000):
+                ctl.move_landmarks({lid: ctl.landmarks[lid] + np.array([0.0, 0.0, 0.01])})
+                if auto.flush() and auto.error is None:
+                    with lock:
+                        _report(w, f"saved {lid} {n}")
+
+        threads = [threading.Thread(target=tab, args=(lid,), daemon=True) for lid in tabs]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+
+    lines = _run_killed(child, rng.uniform(0.02, 0.4))
+    done = {lid: 0 for lid in tabs}
+    for x in lines:
+        if x.startswith("saved"):
+            _, lid, n = x.split()
+            done[lid] = max(done[lid], int(n))
     try:
         s = read_simulation(p.records.folders, PID, slug)
     except NaseviewError:
         return 0, 1
-    lost = sum(1 for a, c in zip(autos, ctls, strict=True) if a.error is None
-               and not np.allclose(s.landmarks["prn"], c.landmarks["prn"]))
-    for a, c in zip(autos, ctls, strict=True):
-        a.close()
-        c.close()
+    lost = 0
+    for lid in tabs:
+        on_disk = round((s.landmarks[lid][2] - p.baseline.landmarks[lid][2]) / 0.01)
+        lost += int(on_disk < done[lid])
     return lost, 0
+
+
+_SERVERS: list[RaceServer] = []
+"""The two server processes of the "two servers" row, up for all its races."""
+
+
+def two_servers(work: Path, rng: random.Random) -> tuple[int, int]:
+    """Two server processes (``sim_race``) open one simulation, edit it and save at
+    the same instant: 1 race. Lost: a save reported done whose edit is not on disk, or a
+    loser that was not told."""
+    _, slug = _patient_simulation(work)
+    if not _SERVERS:
+        _SERVERS.extend([RaceServer(), RaceServer()])
+    r = race_round(_SERVERS, work, PID, slug, rng.randrange(1000))
+    return r.lost + (2 - r.saved - r.told), int(r.corrupt)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--kills", type=int, default=200, help="SIGKILLs in all (default 200)")
     ap.add_argument("--signals", type=int, default=5, help="stops per signal (default 5)")
-    ap.add_argument("--races", type=int, default=50, help="two-writer races (default 50)")
+    ap.add_argument("--tabs", type=int, default=40,
+                    help="SIGKILLs of a server with three tabs editing (default 40)")
+    ap.add_argument("--races", type=int, default=50,
+                    help="two-server-process races (default 50)")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args(argv)
     rng = random.Random(args.seed)
@@ -279,7 +307,8 @@ def main(argv: list[str] | None = None) -> int:
         sig = getattr(signal, name)
         rows.append((f"serve {name}", lambda w, r, sig=sig: signal_stop(w, r, sig),
                      args.signals))
-    rows.append(("two writers", two_writers, args.races))
+    rows.append(("three tabs kill", three_tabs_kill, args.tabs))
+    rows.append(("two servers", two_servers, args.races))
     print(f"{'fault':<16}{'runs':>6}{'survived':>10}{'lost':>6}{'corrupt':>9}{'s':>7}")
     total = [0, 0, 0, 0]
     for name, fn, n in rows:
@@ -298,6 +327,8 @@ def main(argv: list[str] | None = None) -> int:
               f"{time.perf_counter() - t0:>7.1f}", flush=True)
         for i, v in enumerate((n, survived, lost, corrupt)):
             total[i] += v
+    for srv in _SERVERS:
+        srv.close()
     print(f"{'total':<16}{total[0]:>6}{total[1]:>10}{total[2]:>6}{total[3]:>9}")
     return 0 if total[2] == 0 and total[3] == 0 else 1
 

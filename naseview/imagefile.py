@@ -19,6 +19,7 @@ import numpy as np
 
 from naseview.errors import NaseviewError
 from naseview.fileio import atomic_write_bytes, read_bytes
+from naseview.image_data import too_little_data
 
 MAX_IMAGE_PIXELS = 64_000_000
 """Largest photo naseview decodes, in pixels (width x height): 64 megapixels.
@@ -156,6 +157,8 @@ def image_header(data: bytes, name: str | os.PathLike[str],
         raise _damaged(name, kind.upper(),
                        f"its header declares {width}x{height} px but the file holds only "
                        f"{len(data):,} bytes, fewer than such an image needs")
+    if (why := too_little_data(data, kind, width, height, needed)) is not None:
+        raise _damaged(name, kind.upper(), why)  # a big file, but its pixels are few
     return kind, int(width), int(height)
 
 

@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "naseview"
 # texture (it uses stage 2's background mask), the pipeline (it bakes the texture of its
 # textured exports), editing/intake/testbed, report, app and the command line.
 LAYERS: dict[str, int] = {
-    "errors": 0, "landmarks": 0, "stages": 0,
+    "errors": 0, "landmarks": 0, "stages": 0, "image_data": 0,
     "fileio": 1, "camera": 1, "params": 1,
     "imagefile": 2,
     "case": 3, "reconstruction": 3, "meshio": 3,

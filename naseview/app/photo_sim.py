@@ -11,12 +11,20 @@ tab computes it (latest request wins), and the slider only re-blends the two cac
 crops. One :class:`PhotoSimulation` per tab; it can show in several places of the tab
 (the surgeon's panel, the patient-mode panel): each :class:`PhotoDisplay` has its own
 photo choice and slider.
+
+The worker is a daemon thread (a tab that never closed cannot hold the process), and a
+composite runs in OpenCV's native code: one still running when the interpreter finalizes
+aborts the process ("terminate called without an active exception", exit status 134,
+after the server has stopped). So at exit every worker is closed and joined first
+(:func:`join_workers`, registered with :mod:`atexit`).
 """
 
 from __future__ import annotations
 
+import atexit
 import logging
 import threading
+import weakref
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
@@ -34,6 +42,23 @@ DISPLAY_WIDTH = 480
 
 CROP_FACTOR = 2.6
 """The crop is this many times the nose's extent in the photo (square, centred on it)."""
+
+
+EXIT_JOIN_S = 30.0
+"""Longest wait at interpreter exit for a worker's composite to finish (each)."""
+
+_WORKERS: weakref.WeakSet[PhotoSimulation] = weakref.WeakSet()
+"""Every :class:`PhotoSimulation` whose worker may still run."""
+
+
+def join_workers(timeout: float = EXIT_JOIN_S) -> None:
+    """Close every tab's photo worker and wait for a composite still in native code
+    (at interpreter exit, :mod:`atexit`; after daemon threads stop being waited for)."""
+    for sim in list(_WORKERS):
+        sim.close(wait=timeout)
+
+
+atexit.register(join_workers)
 
 
 @dataclass(frozen=True)
@@ -138,6 +163,7 @@ class PhotoSimulation:
         self._thread = threading.Thread(target=self._run, name="naseview-photo-sim",
                                         daemon=True)
         self._thread.start()
+        _WORKERS.add(self)
 
     def add_display(self, gui: viser.GuiApi, initial: str = "front") -> PhotoDisplay:
         d = PhotoDisplay(gui, self, self.views,
@@ -195,10 +221,16 @@ class PhotoSimulation:
         for d in shown:
             d.refresh()
 
-    def close(self) -> None:
+    def close(self, wait: float = 0.0) -> None:
+        """Stop the worker (a composite under way finishes; returns at once unless
+        ``wait``: then at most ``wait`` seconds for it)."""
         with self._cond:
             self._closed = True
             self._cond.notify()
+        if wait > 0 and self._thread is not threading.current_thread():
+            self._thread.join(wait)
+        if not self._thread.is_alive():
+            _WORKERS.discard(self)
 
 
 def sim_inputs(photos: Mapping[str, np.ndarray], cameras: Mapping[str, Camera],

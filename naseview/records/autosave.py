@@ -11,7 +11,11 @@ A write is a compare-and-swap under :func:`naseview.fileio.folder_lock` of the
 simulations folder: if the file changed since this window last wrote or read it (another
 tab's server, another window), nothing is written and the window is told in one line.
 Nothing is written during a drag; a state equal to the one last written is not written
-again. A failed write (disk full) is kept as :attr:`Autosave.error` (one line) and sent to
+again. A parameter change is written as soon as it is committed, without the debounce:
+the controller rebased on the new reconstruction (a new ``generation``) is saved at once,
+with the reconstruction's SHA-256 given by :meth:`Autosave.set_reconstruction` (which
+waits for that rebase, so a file never pairs the new SHA-256 with the old baseline).
+A failed write (disk full) is kept as :attr:`Autosave.error` (one line) and sent to
 ``on_error``; the next change tries again. :meth:`Autosave.close` writes what is pending.
 
 Example
@@ -79,6 +83,10 @@ class Autosave:
         self.delay = float(delay)
         self._record = SessionRecord(check_name(name), created or now_iso(), None,
                                      reconstruction_sha256)
+        self._next_sha: tuple[int, str | None] | None = None
+        """(controller generation when it was set, SHA-256) of a reconstruction the
+        controller is about to be rebased on (:meth:`set_reconstruction`)."""
+        self._written_generation = controller.generation
         self._app_state = app_state
         self._cond = threading.Condition()
         self._save_lock = threading.Lock()
@@ -141,11 +149,24 @@ class Autosave:
         self.flush()
 
     def set_reconstruction(self, sha256: str | None) -> None:
-        """The controller was rebased on a new reconstruction (its SHA-256)."""
+        """The controller is about to be rebased on a new reconstruction (its SHA-256,
+        just saved): recorded with the first save after the controller's ``generation``
+        moves on (the rebase), which is written without waiting for the debounce. Until
+        then saves keep the old SHA-256, which goes with the baseline they hold."""
         with self._cond:
-            self._record = dataclasses.replace(self._record, reconstruction_sha256=sha256)
-            self._last_key = None
+            self._next_sha = (self.controller.generation, sha256)
         self._changed()
+
+    def _record_now(self) -> tuple[SessionRecord, int]:
+        """(the record to write, the controller's generation it goes with); under
+        ``_cond``. A pending :meth:`set_reconstruction` applies once the rebase is done."""
+        gen = self.controller.generation
+        if self._next_sha is not None and gen != self._next_sha[0]:
+            self._record = dataclasses.replace(self._record,
+                                               reconstruction_sha256=self._next_sha[1])
+            self._next_sha = None
+            self._last_key = None
+        return self._record, gen
 
     # the worker
     def _run(self) -> None:
@@ -157,12 +178,12 @@ class Autosave:
                     return
                 seen = self._changes
                 deadline = time.monotonic() + self.delay
-                while not self._closed:
+                while not self._closed and not self._rebased():
                     left = deadline - time.monotonic()
                     if left <= 0:
                         break
                     self._cond.wait(left)
-                    if self._changes != seen:       # another change: wait again
+                    if self._changes != seen and not self._rebased():  # wait again
                         seen = self._changes
                         deadline = time.monotonic() + self.delay
                 if self._closed:
@@ -171,6 +192,11 @@ class Autosave:
                 with self._cond:  # a drag is open: its end is the next change
                     while not self._closed and self._changes == seen:
                         self._cond.wait()
+
+    def _rebased(self) -> bool:
+        """The controller was rebased since the last write (a parameter change): it is
+        written at once."""
+        return self.controller.generation != self._written_generation
 
     def _save(self, timeout: float = 30.0, during_drag: bool = False) -> bool:
         """Write the current state if it changed. False when a drag is open (nothing is
@@ -183,7 +209,7 @@ class Autosave:
             ctl.wait_idle(timeout)
             with self._cond:
                 upto = self._changes
-                record = self._record
+                record, generation = self._record_now()
             if ctl.dragging is not None and not during_drag:  # begun while solving
                 return False
             try:
@@ -205,6 +231,7 @@ class Autosave:
                     self.saves += 1
                     self._last_key = key
                     self._notify_saved()
+                self._written_generation = generation
                 self.error = None
             except Exception as e:  # noqa: BLE001 - a failed save never stops the editor
                 msg = str(e) if isinstance(e, NaseviewError) else (

@@ -3,8 +3,12 @@
 The texture of a face needs each vertex of the face mesh ``V`` (n, 3) mm, ``F`` (m, 3), at
 a point ``uv`` (n, 2) of the texture square. One chart without cuts keeps the vertex ids of
 the mesh (a vertex has one ``uv``): the free-boundary least-squares conformal map (LSCM,
-Lévy et al. 2002, ``igl.lscm``) of the whole face, eye and mouth holes included (they are
-free boundaries like the outer border). A conformal map of a head-like bowl shrinks its
+Lévy et al. 2002, ``igl.lscm``) of the whole face with its eye and mouth holes closed for
+the map (ear-clipped in each hole's plane, :func:`naseview.geometry.closing.ear_clip`; a
+hole whose flat cap would fold the chart, like ICT's mouth, stays free). Left free, a
+hole's border is squeezed by the map (an ICT eye socket's 24 x 16 mm opening became
+76 x 17 texels, a third of the vertical resolution), and the cap a renderer puts over it
+is textured in streaks. A conformal map of a head-like bowl shrinks its
 centre, the nose, which is what the surgeon and the patient look at; a radial warp of the
 chart around the nose (``r -> log(1 + k r) / log(1 + k)``, monotone, so no triangle folds)
 magnifies it about ``k / log(1 + k)`` times. The chart is turned so that the face's up
@@ -40,7 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from naseview.errors import NaseviewError
-from naseview.geometry.closing import boundary_loops
+from naseview.geometry.closing import boundary_loops, ear_clip
 
 __all__ = ["face_uv", "flipped_triangles", "uv_to_pixels"]
 
@@ -86,6 +90,38 @@ def _lscm(V: np.ndarray, F: np.ndarray) -> np.ndarray:
     if uv.shape != (len(V), 2) or not np.isfinite(uv).all():
         raise NaseviewError("face mesh: the conformal map failed (is the mesh one connected "
                             "piece with a border?)")
+    return uv
+
+
+def _flat_cap(V: np.ndarray, loop: np.ndarray) -> np.ndarray:
+    """Triangles closing the hole ``loop`` (ear-clipped in its best-fit plane, no new
+    vertex), oriented like the mesh: the rim runs ``loop[i] -> loop[i+1]`` in ``F``, so
+    the cap runs it the other way."""
+    P = V[loop] - V[loop].mean(axis=0)
+    axes = np.linalg.svd(P, full_matrices=False)[2]
+    T = loop[ear_clip(P @ axes[:2].T)]
+    a, b = int(loop[0]), int(loop[1])
+    if any((t[k], t[(k + 1) % 3]) == (a, b) for t in T.tolist() for k in range(3)):
+        T = T[:, ::-1]
+    return np.asarray(T, dtype=np.int64)
+
+
+def _lscm_holes_closed(V: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """:func:`_lscm` of ``F`` with its holes (every border loop but the longest) closed
+    for the map, one by one, each kept only if it folds no more triangles of ``F`` in the
+    chart (an ICT eye opening is kept closed; its mouth, whose flat cap would fold the
+    lips' corners, stays free)."""
+    loops = sorted(boundary_loops(F), key=lambda lp: float(np.linalg.norm(
+        V[lp] - np.roll(V[lp], -1, axis=0), axis=1).sum()))
+    faces = F
+    uv = _lscm(V, faces)
+    folds = int(flipped_triangles(uv, F).sum())
+    for loop in loops[:-1]:
+        trial = np.concatenate([faces, _flat_cap(V, loop)])
+        uv_t = _lscm(V, trial)
+        n = int(flipped_triangles(uv_t, F).sum())
+        if n <= folds:
+            faces, uv, folds = trial, uv_t, n
     return uv
 
 
@@ -136,7 +172,7 @@ def face_uv(V: ArrayLike, F: ArrayLike, focus: int | None = None, magnify: float
         hit = _CACHE.get(key)
     if hit is not None and len(hit) == len(V):
         return hit.copy()
-    uv = _upright(_lscm(V, F), V)
+    uv = _upright(_lscm_holes_closed(V, F), V)  # holes closed for the map (module doc)
     if magnify > 0:
         d = uv - uv[foc]
         r = np.linalg.norm(d, axis=1)

@@ -53,4 +53,13 @@ class Patient:
     def controller(self) -> EditController:
         return EditController(self.baseline, GaussianSolver(self.baseline))
 
+    def first_simulation(self) -> str:
+        """A first simulation of the patient (no edit), on disk and closed: its slug."""
+        ctl = self.controller()
+        auto = self.records.start_simulation(self.pid, ctl, delay=60.0,
+                                             reconstruction_sha256=self.saved.sha256)
+        auto.close()
+        ctl.close()
+        return auto.slug
+
 

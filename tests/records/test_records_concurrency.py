@@ -58,12 +58,7 @@ def test_two_servers_saving_one_simulation_at_once_lose_nothing(patient: Patient
     same moment. A save reported as done (no error) is on disk; the other is told in one
     line. Lost = a window saying saved whose edit is not in the file."""
     root = patient.records.folders.root
-    ctl = patient.controller()
-    first = patient.records.start_simulation(patient.pid, ctl, delay=60.0,
-                                             reconstruction_sha256=patient.saved.sha256)
-    slug = first.slug
-    first.close()
-    ctl.close()
+    slug = patient.first_simulation()
     lost = told = 0
     for trial in range(50):
         autos, ctls, recs = [], [], []
