@@ -152,11 +152,12 @@ VIEW_LANDMARKS: dict[str, tuple[str, ...]] = {
     "bottom": ("prn", "c", "sn", "al_l", "al_r", "alp_l", "alp_r", "alpp_l", "alpp_r",
                "ac_l", "ac_r", "md_l", "md_r", "add_l", "add_r"),
     # a 3/4 photo: the midline, its own side (the nasal root, the sidewall, the alar
-    # groove and crease from the side) and the far side's medial canthus and alar arch
-    "oblique_left": MIDLINE_IDS + ("mf_l", "int_l", "al_l", "alp_l", "ac_l", "md_l",
-                                   "mf_r", "md_r"),
-    "oblique_right": MIDLINE_IDS + ("mf_r", "int_r", "al_r", "alp_r", "ac_r", "md_r",
-                                    "mf_l", "md_l"),
+    # groove and crease, the nostril's rim from the side, as a profile shows them) and
+    # the far side's medial canthus and alar arch
+    "oblique_left": MIDLINE_IDS + ("mf_l", "int_l", "al_l", "alp_l", "alpp_l", "ac_l",
+                                   "md_l", "mf_r", "md_r"),
+    "oblique_right": MIDLINE_IDS + ("mf_r", "int_r", "al_r", "alp_r", "alpp_r", "ac_r",
+                                    "md_r", "mf_l", "md_l"),
 }
 """Which landmarks a surgeon can mark in each photo (those visible in it), the obliques'
 included (:data:`ALL_VIEWS`)."""
