@@ -16,6 +16,7 @@ from naseview.errors import NaseviewError
 from naseview.facemodel import load_face_model
 from naseview.landmarks import ALL_VIEWS, VIEW_LANDMARKS, VIEWS
 from naseview.reconstruction import read_reconstruction
+from naseview.testbed.sheet import LEGEND_H, contact_sheet
 from naseview.testbed.synth import synthesize_case
 from naseview.testbed.synth.rig import parse_views
 
@@ -85,3 +86,9 @@ def test_five_photos_and_the_command_line(tmp_path: Path) -> None:
 def test_bad_views_are_one_line_errors(text: str, needle: str) -> None:
     with pytest.raises(NaseviewError, match=needle):
         parse_views(text)
+
+
+def test_contact_sheet_shows_the_obliques_in_a_third_row(pair: tuple[Path, Path]) -> None:
+    four, six = (contact_sheet(read_case(d), tile=160) for d in pair)
+    assert four.shape[1] == six.shape[1] == 320
+    assert six.shape[0] - four.shape[0] == (four.shape[0] - LEGEND_H) // 2   # one row more
