@@ -178,3 +178,14 @@ def test_a_noisy_good_oblique_click_is_kept_beside_a_wrong_click(noisy_oblique: 
     assert not [sc for sc in bundle_adjust(case).suspect_clicks if sc.ignored]
     res = bundle_adjust(_moved(case, "left", "c", np.array([15.0, 0.0])))
     assert [(sc.view, sc.landmark) for sc in res.suspect_clicks if sc.ignored] == [("left", "c")]
+
+
+def test_swapped_obliques_are_named(six: Path) -> None:
+    case = read_case(six)
+    views = dict(case.views)
+    views["oblique_left"] = replace(case.views["oblique_right"], name="oblique_left")
+    views["oblique_right"] = replace(case.views["oblique_left"], name="oblique_right")
+    res = bundle_adjust(replace(case, views=views))
+    assert any("'oblique_right' photo looks like a 'oblique_left' photo" in w
+               and "swap them" in w for w in res.warnings), res.warnings[:3]
+    assert not any("swap them" in w for w in bundle_adjust(case).warnings)
