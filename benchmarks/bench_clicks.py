@@ -19,6 +19,12 @@ three photos two re-solves fit every click equally well; only the symmetry prior
 pick the wrong click. The table counts those trials (``along epi``: within 15 degrees of
 such a line) and the correct blame among the rest (``correct off-epi``).
 
+**Six photos** (issue 24): the same sweep on the same cases rendered with the two oblique
+photos as well (``--views front,left,right,bottom,oblique_left,oblique_right``: the four
+photos and their clicks are those of the four-photo case), a row per offset beside the
+four-photo one (``--photos 4,6``, the default). An oblique photo's epipolar lines cross
+the four-photo rig's, so a move along one line of the rig is off the oblique's.
+
 It also prints the worst landmark error (mm, after rigid alignment to the clean-click
 solve) and how many trials leave a landmark more than 1 mm from its clean-click position
 with no warning that names it (the target is 0).
@@ -31,7 +37,8 @@ focal length, swapped or rotated photos). ``SfmParams.min_px_per_mm`` is set fro
 
 Cases are rendered once into ``--data`` (default ``$TMPDIR/naseview-bench-clicks``).
 
-    python benchmarks/bench_clicks.py [--seeds 1,2] [--px 15,30] [--sizes 1024,768,512]
+    python benchmarks/bench_clicks.py [--seeds 1,2] [--px 15,30] [--photos 4,6]
+                                      [--sizes 1024,768,512]
 """
 
 from __future__ import annotations
@@ -39,6 +46,7 @@ from __future__ import annotations
 import argparse
 import os
 import tempfile
+import time
 from collections import Counter
 from dataclasses import replace
 from pathlib import Path
@@ -48,6 +56,7 @@ import numpy as np
 from naseview.case import Case, read_case
 from naseview.errors import NaseviewError
 from naseview.facemodel import load_face_model
+from naseview.landmarks import ALL_VIEWS, VIEWS
 from naseview.reconstruction import read_reconstruction
 from naseview.stage1_landmarks import SfmResult, bundle_adjust
 from naseview.stage1_landmarks.plausibility import px_per_mm
@@ -65,11 +74,22 @@ TARGET_15 = 0.98
 MOVE_LIMIT_MM = 1.0
 
 
-def ensure_case(d: Path, seed: int, size: int) -> Path:
-    """A generic synthetic case ``d`` (rendered when missing)."""
+PHOTOS: dict[int, tuple[str, ...]] = {4: VIEWS, 6: ALL_VIEWS}
+"""``--photos`` -> the views rendered: the four, or the four and both obliques."""
+
+
+def ensure_case(d: Path, seed: int, size: int, views: tuple[str, ...] = VIEWS) -> Path:
+    """A generic synthetic case ``d`` of ``views`` (rendered when missing)."""
     if not (d / "case.json").is_file():
-        synthesize_case(d, load_face_model("generic"), seed=seed, noise_px=1.5, size=size)
+        synthesize_case(d, load_face_model("generic"), seed=seed, noise_px=1.5, size=size,
+                        views=views)
     return d
+
+
+def case_folder(root: Path, size: int, photos: int, seed: int) -> Path:
+    """``root/size-1024/case-001`` (four photos, the folders of earlier runs) or
+    ``root/size-1024-6/case-001`` (six)."""
+    return root / (f"size-{size}" if photos == 4 else f"size-{size}-{photos}") / f"case-{seed:03d}"
 
 
 def with_click(case: Case, view: str, lid: str, uv: np.ndarray) -> Case:
@@ -222,6 +242,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--sizes", default="1024,768,640,512,256,200,120", help="photo sizes, px")
     ap.add_argument("--directions", default="right,down",
                     help=f"click move directions, of {','.join(DIRECTIONS)}")
+    ap.add_argument("--photos", default="4,6",
+                    help="one-bad-click rows: 4 (front, left, right, bottom) and/or 6 (and "
+                         "both obliques)")
     ap.add_argument("--no-resolution", action="store_true")
     ap.add_argument("--verbose", action="store_true", help="list every trial not correct")
     ap.add_argument("--data", type=Path,
@@ -231,31 +254,42 @@ def main(argv: list[str] | None = None) -> int:
     if not set(directions) <= set(DIRECTIONS):
         ap.error(f"--directions: each of {', '.join(DIRECTIONS)}")
     seeds = [int(s) for s in args.seeds.split(",")]
-    dirs = [ensure_case(args.data / "size-1024" / f"case-{s:03d}", s, 1024) for s in seeds]
+    photos = [int(p) for p in args.photos.split(",")]
+    if not set(photos) <= set(PHOTOS):
+        ap.error("--photos: 4 and/or 6")
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"One bad click, generic synthetic cases (seeds {args.seeds}), 1024 px; load "
           f"average {load:.1f}; directions {args.directions}")
-    print(f"{'px':>4} {'trials':>6} {'correct':>8} {'wrong':>6} {'ambig':>6} {'unflag':>7} "
-          f"{'error':>6} {'worst mm':>9} {'>1mm unnamed':>13} {'along epi':>10} "
-          f"{'ambig along':>12} {'correct off-epi':>16}")
-    ok = True
-    for px in [float(p) for p in args.px.split(",")]:
-        r = click_sweep(dirs, px, directions)
-        c, a = r["counts"], r["along"]
-        assert isinstance(c, Counter) and isinstance(a, Counter)
-        print(f"{px:>4g} {r['n']:>6} {c['correct']:>8} {c['wrong']:>6} {c['ambiguous']:>6} "
-              f"{c['unflagged']:>7} {c['error']:>6} {r['worst']:>9.2f} {r['silent']:>13} "
-              f"{sum(a.values()):>10} {a['ambiguous']:>12} "
-              f"{_off(c, a, 'correct'):>16}")
-        frac = c["correct"] / max(1, int(r["n"]))  # type: ignore[call-overload]
-        need = TARGET_15 if px < 30 else 1.0
-        ok &= frac >= need and c["wrong"] == 0 and r["silent"] == 0
-        if args.verbose:
-            for f in r["failures"]:  # type: ignore[attr-defined]
-                print("   ", f)
+    print(f"{'photos':>6} {'px':>4} {'trials':>6} {'correct':>8} {'wrong':>6} {'ambig':>6} "
+          f"{'unflag':>7} {'error':>6} {'worst mm':>9} {'>1mm unnamed':>13} {'along epi':>10} "
+          f"{'ambig along':>12} {'correct off-epi':>16} {'s/solve':>8}")
+    verdict = {}
+    for n_photos in photos:
+        dirs = [ensure_case(case_folder(args.data, 1024, n_photos, s), s, 1024,
+                            PHOTOS[n_photos]) for s in seeds]
+        ok = True
+        for px in [float(p) for p in args.px.split(",")]:
+            t0 = time.perf_counter()
+            r = click_sweep(dirs, px, directions)
+            secs = (time.perf_counter() - t0) / max(1, int(r["n"]) + len(dirs))  # type: ignore[call-overload]
+            c, a = r["counts"], r["along"]
+            assert isinstance(c, Counter) and isinstance(a, Counter)
+            print(f"{n_photos:>6} {px:>4g} {r['n']:>6} {c['correct']:>8} {c['wrong']:>6} "
+                  f"{c['ambiguous']:>6} {c['unflagged']:>7} {c['error']:>6} "
+                  f"{r['worst']:>9.2f} {r['silent']:>13} {sum(a.values()):>10} "
+                  f"{a['ambiguous']:>12} {_off(c, a, 'correct'):>16} {secs:>8.2f}", flush=True)
+            frac = c["correct"] / max(1, int(r["n"]))  # type: ignore[call-overload]
+            need = TARGET_15 if px < 30 else 1.0
+            ok &= frac >= need and c["wrong"] == 0 and r["silent"] == 0
+            if args.verbose:
+                for f in r["failures"]:  # type: ignore[attr-defined]
+                    print("   ", f)
+        verdict[n_photos] = ok
     print("targets: 15 px >= 98 % correct, 0 wrong; 30 px 100 % correct; no landmark "
           f"> {MOVE_LIMIT_MM:g} mm from its clean-click position unnamed: "
-          f"{'PASS' if ok else 'FAIL'}")
+          + ", ".join(f"{n} photos {'PASS' if ok else 'FAIL'}" for n, ok in verdict.items()))
+    print("s/solve: seconds per stage-1 solve (each trial's, with its leave-one-out "
+          "re-solves, and each clean one), on this machine's load")
     print(f"along epi: trials whose move lies within {EPIPOLAR_DEG:g} deg of an epipolar line "
           "of its photo (only priors can then tell which click is wrong); ambig along: of "
           "those, the ambiguous ones; correct off-epi: correct blame among the others")

@@ -1,7 +1,8 @@
 """Case directories (SPEC §3): reading, validating and writing.
 
-A case is four photos plus the 2D landmark clicks on them and at least one calliper
-distance. :func:`read_case` validates everything at the boundary and raises
+A case is four photos (front, left, right, bottom), optionally one or both oblique photos
+(``oblique_left``, ``oblique_right``), the 2D landmark clicks on them and at least one
+calliper distance. :func:`read_case` validates everything at the boundary and raises
 :class:`~naseview.errors.NaseviewError` with one line naming the file, the key and what
 was expected; the rest of naseview can then trust a :class:`Case`.
 
@@ -32,7 +33,7 @@ from naseview.fileio import (
     write_error,
 )
 from naseview.imagefile import image_size, read_image, write_image
-from naseview.landmarks import ALL_IDS, LANDMARK_IDS, VIEWS
+from naseview.landmarks import ALL_IDS, LANDMARK_IDS, OBLIQUE_VIEWS, VIEWS
 from naseview.params import PHOTO_SIDE_PX, Range, first_outside, focal_range
 
 CASE_FORMAT = "naseview.case/1"
@@ -51,7 +52,8 @@ class View:
     """One photo of a case.
 
     Attributes:
-        name: ``front``, ``left``, ``right`` or ``bottom``.
+        name: ``front``, ``left``, ``right``, ``bottom``, ``oblique_left`` or
+            ``oblique_right`` (:data:`naseview.landmarks.ALL_VIEWS`).
         image: file name relative to the case directory.
         landmarks: id -> (2,) pixel ``[x, y]`` (SPEC §2), only where marked.
         width, height: image size in pixels.
@@ -81,7 +83,9 @@ class Case:
     Attributes:
         root: the case directory.
         id: anonymised id.
-        views: view name -> :class:`View` (all four present).
+        views: view name -> :class:`View`: the four of
+            :data:`~naseview.landmarks.VIEWS`, then the obliques the case has, in
+            :data:`~naseview.landmarks.ALL_VIEWS` order.
         scale_mm: ``(id_a, id_b)`` -> measured distance in mm (at least one).
         notes: free text.
         extra: unknown top-level keys of ``case.json``, kept and written back verbatim.
@@ -207,8 +211,12 @@ def parse_case(obj: dict[str, Any], root: Path, json_path: Path | None = None,
         raise _err(path, "format", f"expected {CASE_FORMAT!r}, found {fmt!r}")
     views_obj = obj.get("views")
     if not isinstance(views_obj, dict):
-        raise _err(path, "views", "expected an object with front, left, right, bottom")
+        raise _err(path, "views", "expected an object with front, left, right, bottom "
+                                  "(and optionally oblique_left, oblique_right)")
     views = {name: _parse_view(path, name, views_obj, root, check_images) for name in VIEWS}
+    for name in OBLIQUE_VIEWS:  # optional: used when present (SPEC §2)
+        if views_obj.get(name) is not None:
+            views[name] = _parse_view(path, name, views_obj, root, check_images)
     scale = _parse_scale(path, obj.get("scale_mm"))
     case_id = obj.get("id", root.name)
     if not isinstance(case_id, str):
@@ -229,7 +237,10 @@ def _parse_view(path: Path, name: str, views_obj: dict[str, Any], root: Path,
                                           "(front, left, right, bottom)")
     v = views_obj[name]
     if not isinstance(v, dict):
-        raise _err(path, f"views.{name}", "expected an object with image and landmarks")
+        optional = (" (or leave this optional oblique view out)" if name in OBLIQUE_VIEWS
+                    else "")
+        raise _err(path, f"views.{name}", "expected an object with image and landmarks"
+                   + optional)
     image = v.get("image")
     if not isinstance(image, str) or not image:
         raise _err(path, f"views.{name}.image", "expected the photo's file name")
@@ -283,7 +294,8 @@ def read_case(case_dir: str | os.PathLike[str]) -> Case:
     """Read and validate a case directory (SPEC §3).
 
     Args:
-        case_dir: directory holding ``case.json`` and the four photos.
+        case_dir: directory holding ``case.json`` and the four photos (and the optional
+            obliques).
     Raises:
         NaseviewError: missing file, unreadable image, unknown landmark id, coordinates
             outside the image, missing ``scale_mm``, ...

@@ -71,6 +71,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write N cases case-000.. under OUT_DIR (seeds 0..N-1 + --seed)")
     s.add_argument("--image-noise", type=float, default=2.0,
                    help="photo sensor noise, grey levels (0 for none)")
+    s.add_argument("--views", default=None,
+                   help="photos to render, comma list: front,left,right,bottom (default) "
+                        "and optionally oblique_left,oblique_right (45 deg three-quarter "
+                        "views)")
     s.set_defaults(func=synth_command)
 
     s = sub.add_parser("sheet", help="PNG contact sheet of a case's photos with clicks")

@@ -24,7 +24,15 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 VIEWS: tuple[str, ...] = ("front", "left", "right", "bottom")
-"""The four photos, SPEC §2. ``left`` is the camera on the subject's left side."""
+"""The four photos every case has, SPEC §2. ``left`` is the camera on the subject's left
+side."""
+
+OBLIQUE_VIEWS: tuple[str, ...] = ("oblique_left", "oblique_right")
+"""The two optional three-quarter photos, SPEC §2: the camera about 45 degrees from the
+front towards the subject's left (``oblique_left``) or right (``oblique_right``)."""
+
+ALL_VIEWS: tuple[str, ...] = VIEWS + OBLIQUE_VIEWS
+"""Every photo a case may have, in SPEC order: the four, then the obliques."""
 
 
 @dataclass(frozen=True)
@@ -143,8 +151,16 @@ VIEW_LANDMARKS: dict[str, tuple[str, ...]] = {
     "right": MIDLINE_IDS + tuple(i for i in LANDMARK_IDS if i.endswith("_r")),
     "bottom": ("prn", "c", "sn", "al_l", "al_r", "alp_l", "alp_r", "alpp_l", "alpp_r",
                "ac_l", "ac_r", "md_l", "md_r", "add_l", "add_r"),
+    # a 3/4 photo: the midline, its own side (the nasal root, the sidewall, the alar
+    # groove and crease, the nostril's rim from the side, as a profile shows them) and
+    # the far side's medial canthus and alar arch
+    "oblique_left": MIDLINE_IDS + ("mf_l", "int_l", "al_l", "alp_l", "alpp_l", "ac_l",
+                                   "md_l", "mf_r", "md_r"),
+    "oblique_right": MIDLINE_IDS + ("mf_r", "int_r", "al_r", "alp_r", "alpp_r", "ac_r",
+                                    "md_r", "mf_l", "md_l"),
 }
-"""Which landmarks a surgeon can mark in each photo (those visible in it)."""
+"""Which landmarks a surgeon can mark in each photo (those visible in it), the obliques'
+included (:data:`ALL_VIEWS`)."""
 
 TABLE1_DISTANCES: tuple[tuple[str, str], ...] = (
     ("mf_l", "mf_r"), ("int_l", "int_r"), ("alp_l", "alp_r"), ("ac_l", "ac_r"),

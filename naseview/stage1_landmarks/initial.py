@@ -1,7 +1,8 @@
 """Initial cameras and landmarks of the bundle adjustment (paper §3.2, start of eq. 1).
 
 Eq. 1 is not convex: its solver needs cameras near the answer. They come from a four-view
-rig prior (front; left and right at ~90 degrees yaw; bottom looking up at ~50 degrees),
+rig prior (front; left and right at ~90 degrees yaw; bottom looking up at ~50 degrees;
+the optional obliques halfway between the front and each profile),
 with the in-plane roll and distance of each photo from a 2D similarity fit of the generic
 nose template (:mod:`.template`), then linear (DLT) triangulation and rounds of per-photo
 resection (PnP) and re-triangulation. Several rig hypotheses (:func:`hypotheses`) are
@@ -45,18 +46,25 @@ def rig_prior_rotation(view: str, yaw_deg: float = 90.0,
 
     ``front`` looks along -z; ``left`` sits on the subject's left (+x) at ``yaw_deg`` from
     the front; ``right`` mirrors it; ``bottom`` sits below the front camera at
-    ``elevation_deg`` and looks up at the nose. Image up is world up tilted with the camera.
+    ``elevation_deg`` and looks up at the nose. The optional ``oblique_left`` /
+    ``oblique_right`` sit halfway between the front and that profile (``yaw_deg / 2``, 45
+    degrees on the prior), level with the nose. Image up is world up tilted with the camera.
 
     Raises:
-        ValueError: ``view`` is not one of the four photos.
+        ValueError: ``view`` is not one of the six photos.
     """
     yaw, el = math.radians(yaw_deg), math.radians(elevation_deg)
+    half = 0.5 * yaw
     if view == "front":
         eye, up = [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]
     elif view == "left":
         eye, up = [math.sin(yaw), 0.0, math.cos(yaw)], [0.0, 1.0, 0.0]
     elif view == "right":
         eye, up = [-math.sin(yaw), 0.0, math.cos(yaw)], [0.0, 1.0, 0.0]
+    elif view == "oblique_left":
+        eye, up = [math.sin(half), 0.0, math.cos(half)], [0.0, 1.0, 0.0]
+    elif view == "oblique_right":
+        eye, up = [-math.sin(half), 0.0, math.cos(half)], [0.0, 1.0, 0.0]
     elif view == "bottom":
         eye, up = [0.0, -math.sin(el), math.cos(el)], [0.0, math.cos(el), math.sin(el)]
     else:

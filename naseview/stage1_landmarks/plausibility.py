@@ -52,11 +52,15 @@ up or down), its roll is not judged."""
 def nominal_direction(view: str, bottom_elevation_deg: float) -> np.ndarray:
     """(3,) unit direction a ``view`` camera looks along in the SPEC frame: front along
     -z (from +z), left along -x (from +x), right along +x, bottom up and back (from below
-    and in front, ``bottom_elevation_deg`` below the front camera)."""
+    and in front, ``bottom_elevation_deg`` below the front camera); the obliques halfway
+    between the front and the left / right profile."""
     e = math.radians(bottom_elevation_deg)
+    h = math.sqrt(0.5)
     return {"front": np.array([0.0, 0.0, -1.0]), "left": np.array([-1.0, 0.0, 0.0]),
             "right": np.array([1.0, 0.0, 0.0]),
-            "bottom": np.array([0.0, math.sin(e), -math.cos(e)])}[view]
+            "bottom": np.array([0.0, math.sin(e), -math.cos(e)]),
+            "oblique_left": np.array([-h, 0.0, -h]),
+            "oblique_right": np.array([h, 0.0, -h])}[view]
 
 
 def viewing_angle_deg(cam: Camera, view: str, bottom_elevation_deg: float) -> float:

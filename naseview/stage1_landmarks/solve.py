@@ -33,7 +33,7 @@ from scipy.optimize import OptimizeResult
 from naseview.camera import Camera
 from naseview.case import Case
 from naseview.errors import NaseviewError
-from naseview.landmarks import LANDMARK_IDS, VIEWS
+from naseview.landmarks import ALL_VIEWS, LANDMARK_IDS
 from naseview.stage1_landmarks import problem
 from naseview.stage1_landmarks.frame import (
     Gauge,
@@ -151,7 +151,7 @@ class _Clicks:
 
     @staticmethod
     def of(case: Case) -> _Clicks:
-        views = [v for v in VIEWS if v in case.views]  # all four photos, or a subset
+        views = [v for v in ALL_VIEWS if v in case.views]  # 4-6 photos, or a subset
         seen_in = {lid: [v for v in views if lid in case.views[v].landmarks]
                    for lid in LANDMARK_IDS}
         return _Clicks(views, seen_in,

@@ -12,7 +12,7 @@ import numpy as np
 
 from naseview.case import Case
 from naseview.errors import NaseviewError
-from naseview.landmarks import LANDMARK_IDS, VIEWS
+from naseview.landmarks import ALL_VIEWS, LANDMARK_IDS
 from naseview.stage1_landmarks.frame import PAIR_BASES
 from naseview.stage1_landmarks.params import SfmParams
 from naseview.stage1_landmarks.problem import Problem
@@ -35,7 +35,7 @@ def case_file(case: Case) -> str:
 def check_inputs(case: Case, params: SfmParams) -> None:
     """One-line errors for photos with too few or collinear clicks, left/right labels
     swapped, and a missing g."""
-    for v in [v for v in VIEWS if v in case.views]:  # all four photos, or a subset
+    for v in [v for v in ALL_VIEWS if v in case.views]:  # 4-6 photos, or a subset
         _check_clicks(case, v, params)
     for v, top in (("front", ("g", "n", "prn")), ("bottom", ("prn", "c"))):
         if v in case.views and sides_swapped(case.views[v].landmarks, top):

@@ -1,6 +1,7 @@
 """Contact sheet of a case: ``naseview sheet CASE_DIR -o sheet.png``.
 
-The four photos in a 2 x 2 grid (front, left / right, bottom), downscaled, with every
+The four photos in a 2 x 2 grid (front, left / right, bottom), the oblique photos a third
+row when the case has them (oblique_left, oblique_right), downscaled, with every
 click drawn as a cross and its id, the view name as a title, and optionally the landmarks
 and curves of a reconstruction (or of a synthetic case's ``truth.json``, same schema)
 reprojected with that reconstruction's cameras, so click errors and bad fits stand out.
@@ -30,7 +31,7 @@ from naseview.camera import Camera
 from naseview.case import Case, read_case
 from naseview.errors import NaseviewError
 from naseview.fileio import atomic_write_bytes
-from naseview.landmarks import HELPER_IDS, VIEWS
+from naseview.landmarks import ALL_VIEWS, HELPER_IDS
 from naseview.reconstruction import Reconstruction, read_reconstruction
 
 CLICK_BGR = (0, 255, 255)
@@ -140,7 +141,8 @@ def view_tile(case: Case, view: str, tile: int,
 
 def contact_sheet(case: Case, reconstruction: Reconstruction | None = None,
                   tile: int = 640) -> np.ndarray:
-    """The 2 x 2 sheet (front, left / right, bottom) with a legend line.
+    """The 2 x 2 sheet (front, left / right, bottom; a third row with the obliques the case
+    has) with a legend line.
 
     Args:
         case: a validated case.
@@ -149,10 +151,13 @@ def contact_sheet(case: Case, reconstruction: Reconstruction | None = None,
     Returns:
         (H, 2 tile, 3) uint8 BGR.
     """
-    tiles = [view_tile(case, view, tile, reconstruction) for view in VIEWS]
+    tiles = [view_tile(case, view, tile, reconstruction) for view in ALL_VIEWS
+             if view in case.views]
     hmax = max(t.shape[0] for t in tiles)
     tiles = [np.vstack([t, np.zeros((hmax - t.shape[0], tile, 3), np.uint8)]) for t in tiles]
-    grid = np.vstack([np.hstack(tiles[:2]), np.hstack(tiles[2:])])
+    if len(tiles) % 2:   # one oblique: an empty tile beside it
+        tiles.append(np.zeros_like(tiles[0]))
+    grid = np.vstack([np.hstack(tiles[i:i + 2]) for i in range(0, len(tiles), 2)])
     legend = np.full((LEGEND_H, grid.shape[1], 3), 40, dtype=np.uint8)
     x = 8
     items = [(f"case {case.id}:", (255, 255, 255)), ("+ click", CLICK_BGR),

@@ -7,6 +7,8 @@ from pathlib import Path
 
 from naseview.errors import NaseviewError
 from naseview.facemodel import load_face_model
+from naseview.landmarks import VIEWS
+from naseview.testbed.synth.rig import parse_views
 from naseview.testbed.synth.scan import read_scan, synthesize_scan_case
 from naseview.testbed.synth.synthesize import synthesize_case
 
@@ -38,6 +40,12 @@ def _case_dirs(args: argparse.Namespace) -> list[Path]:
     return dirs
 
 
+def _views(args: argparse.Namespace) -> tuple[str, ...]:
+    """``--views`` (default the four photos) in SPEC order, checked."""
+    text = getattr(args, "views", None)
+    return VIEWS if text is None else parse_views(text)
+
+
 def synth_command(args: argparse.Namespace) -> int:
     """One case into ``out_dir``, or ``--batch N`` cases ``out_dir/case-000..`` with seeds
     ``seed, seed + 1, ...``; prints each case directory (and the ICT credit).
@@ -53,9 +61,11 @@ def synth_command(args: argparse.Namespace) -> int:
     noise_px = float(args.noise_px)
     image_noise = float(args.image_noise)
     seed = int(args.seed)
+    views = _views(args)
     dirs = _case_dirs(args)
     for i, d in enumerate(dirs):
-        print(synthesize_case(d, model, seed + i, noise_px, size, image_noise).parent)
+        print(synthesize_case(d, model, seed + i, noise_px, size, image_noise,
+                              views=views).parent)
     if model.name == "ict" or "ICT" in model.credit:
         print(f"face model: {ICT_CREDIT}")
     return 0
@@ -68,12 +78,13 @@ def _scan_command(args: argparse.Namespace) -> int:
     if getattr(args, "landmarks", None) is None:
         raise NaseviewError("--scan needs --landmarks LANDMARKS.json (SPEC §8: the 21 "
                             "landmarks and both add helpers in the SPEC frame)")
+    views = _views(args)
     dirs = _case_dirs(args)
     scan = read_scan(args.scan, args.landmarks, getattr(args, "texture", None))
     for i, d in enumerate(dirs):
         path = synthesize_scan_case(d, scan, int(args.seed) + i,
                                     float(args.noise_px), int(args.size),
-                                    float(args.image_noise))
+                                    float(args.image_noise), views)
         print(path.parent)
     print(f"scan: {scan.source['credit']}")
     return 0

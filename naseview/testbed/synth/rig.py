@@ -9,7 +9,12 @@
   up at 45-60 degrees elevation. Each view gets yaw and pitch jitter of up to +-8 degrees
   (profile views: up to 8 degrees towards the face but at most 2 behind the true profile,
   where the brow would hide g), roll up to +-6 degrees and its own distance (the case's
-  base distance, 300-450 mm, +-15 %). One focal length per case (one phone), chosen so
+  base distance, 300-450 mm, +-15 %). The optional oblique views (``oblique_left``,
+  ``oblique_right``: 45 degrees from the front towards the subject's left / right, level
+  with the nose) get the same jitter; they are drawn after the four from the same stream,
+  so the four cameras of a case do not depend on whether its obliques are rendered, and
+  an oblique that would put a landmark near a border steps back instead of zooming the
+  others out. One focal length per case (one phone), chosen so
   that the alar width al_l-al_r spans 26-34 % of the frame width (the nose region about a
   third of the frame: surgeons frame the nose), reduced if a marked landmark would fall
   within 8 % of a border. That is ``f`` of about 1.8-4.6 times the image width: a phone
@@ -38,7 +43,7 @@ import numpy as np
 from naseview.camera import Camera, look_at, rodrigues
 from naseview.errors import NaseviewError
 from naseview.facemodel import FaceModel
-from naseview.landmarks import VIEW_LANDMARKS, VIEWS
+from naseview.landmarks import ALL_VIEWS, OBLIQUE_VIEWS, VIEW_LANDMARKS, VIEWS
 
 DEFAULT_SIZE = 1024
 """Photo width = height (px)."""
@@ -58,6 +63,25 @@ def check_synth_arguments(size: int, seed: int, noise_px: float, image_noise: fl
         raise NaseviewError(f"--seed {seed}: the seed is an integer >= 0")
     if not (noise_px >= 0 and image_noise >= 0 and math.isfinite(noise_px + image_noise)):
         raise NaseviewError("--noise-px and --image-noise must be finite and >= 0")
+
+def parse_views(text: str) -> tuple[str, ...]:
+    """``--views front,left,right,bottom,oblique_left`` -> the views in
+    :data:`~naseview.landmarks.ALL_VIEWS` order.
+
+    Raises:
+        NaseviewError: an unknown view, or one of the four required views missing.
+    """
+    names = [v.strip() for v in text.split(",") if v.strip()]
+    unknown = [v for v in names if v not in ALL_VIEWS]
+    if unknown:
+        raise NaseviewError(f"--views: unknown view {unknown[0]!r}; use the four "
+                            f"{', '.join(VIEWS)} and optionally {', '.join(OBLIQUE_VIEWS)}")
+    missing = [v for v in VIEWS if v not in names]
+    if missing:
+        raise NaseviewError(f"--views: {', '.join(missing)} missing; every case has the four "
+                            f"views {', '.join(VIEWS)} (the obliques are optional)")
+    return tuple(v for v in ALL_VIEWS if v in names)
+
 
 SIDE_YAW_BEHIND = 2.0
 """Degrees a profile camera may stand behind the true profile."""
@@ -105,15 +129,22 @@ def _nominal_directions(elev: float) -> dict[str, np.ndarray]:
         "left": np.array([1.0, 0.0, 0.0]),
         "right": np.array([-1.0, 0.0, 0.0]),
         "bottom": np.array([0.0, -math.sin(math.radians(elev)), math.cos(math.radians(elev))]),
+        "oblique_left": np.array([math.sqrt(0.5), 0.0, math.sqrt(0.5)]),
+        "oblique_right": np.array([-math.sqrt(0.5), 0.0, math.sqrt(0.5)]),
     }
+
+
+def _draw_view(points: Points, rng: np.random.Generator, base: float, view: str) -> ViewDraw:
+    """One view's jitter: yaw and pitch +-8 degrees, roll +-6, distance +-15 % of
+    ``base`` (mm), aim +-4 mm from :func:`view_aim`."""
+    return (rng.uniform(-8.0, 8.0, size=2), float(rng.uniform(-6.0, 6.0)),
+            base * float(rng.uniform(0.85, 1.15)),
+            view_aim(points, view) + rng.uniform(-4.0, 4.0, size=3))
 
 
 def _draw_views(points: Points, rng: np.random.Generator, base: float) -> dict[str, ViewDraw]:
     """Per view, in :data:`~naseview.landmarks.VIEWS` order: angles, roll, distance, aim."""
-    draws = {view: (rng.uniform(-8.0, 8.0, size=2), float(rng.uniform(-6.0, 6.0)),
-                    base * float(rng.uniform(0.85, 1.15)),
-                    view_aim(points, view) + rng.uniform(-4.0, 4.0, size=3))
-             for view in VIEWS}
+    draws = {view: _draw_view(points, rng, base, view) for view in VIEWS}
     # profile photos: a photographer may stand up to 8 degrees in front of the true
     # profile but hardly behind it (then the brow hides g): yaw towards the face in
     # [-SIDE_YAW_BEHIND, 8] degrees (rotation about +y moves the left camera backwards)
@@ -150,21 +181,50 @@ def _well_inside(cam: Camera, points: Points, view: str, size: int) -> bool:
 
 
 def sample_rig(V: np.ndarray, model: FaceModel, rng: np.random.Generator,
-               size: int = DEFAULT_SIZE) -> tuple[dict[str, Camera], dict[str, Any]]:
-    """Four jittered phone cameras around the nose (see the module docstring).
+               size: int = DEFAULT_SIZE, views: tuple[str, ...] = VIEWS
+               ) -> tuple[dict[str, Camera], dict[str, Any]]:
+    """Four jittered phone cameras around the nose, and the obliques among ``views`` (see
+    the module docstring).
 
     Args:
         V: (V, 3) face in the SPEC frame (mm).
         model: gives the landmark vertices.
         rng: random stream of the rig.
         size: image width = height (px).
+        views: the four of :data:`~naseview.landmarks.VIEWS` and any obliques.
     Returns:
         ``{view: Camera}`` and a JSON-able description of the draw.
     """
-    return sample_rig_points(landmark_points(V, model), rng, size)
+    return sample_rig_points(landmark_points(V, model), rng, size, views)
 
 
-def sample_rig_points(points: Points, rng: np.random.Generator, size: int = DEFAULT_SIZE
+def _oblique_cameras(points: Points, rng: np.random.Generator, base: float, focal: float,
+                     size: int, views: tuple[str, ...]
+                     ) -> tuple[dict[str, Camera], dict[str, dict[str, Any]]]:
+    """The cameras of the obliques among ``views``, at the four's focal length (px).
+
+    Both obliques are drawn whichever are asked for, so ``oblique_right`` is the same in a
+    five- and a six-photo case; one that would put a landmark within 8 % of a border
+    steps back by 7 % at a time (at most 20 times) instead of changing the focal length."""
+    nominal = _nominal_directions(0.0)
+    cams: dict[str, Camera] = {}
+    info: dict[str, dict[str, Any]] = {}
+    for view in OBLIQUE_VIEWS:
+        (yaw, pitch), roll, dist, target = _draw_view(points, rng, base, view)
+        if view not in views:
+            continue
+        for _ in range(20):
+            draw: ViewDraw = (np.array([yaw, pitch]), roll, dist, target)
+            cams[view] = _place_camera(draw, nominal[view], focal, size)
+            if _well_inside(cams[view], points, view, size):
+                break
+            dist *= 1.07
+        info[view] = _draw_info(draw)
+    return cams, info
+
+
+def sample_rig_points(points: Points, rng: np.random.Generator, size: int = DEFAULT_SIZE,
+                      views: tuple[str, ...] = VIEWS
                       ) -> tuple[dict[str, Camera], dict[str, Any]]:
     """:func:`sample_rig` for any face given by its landmarks (e.g. a scan, SPEC §8).
 
@@ -173,6 +233,8 @@ def sample_rig_points(points: Points, rng: np.random.Generator, size: int = DEFA
             the landmarks of each view).
         rng: random stream of the rig.
         size: image width = height (px).
+        views: the four of :data:`~naseview.landmarks.VIEWS` and any obliques
+            (:data:`~naseview.landmarks.OBLIQUE_VIEWS`), drawn after the four.
     Returns:
         ``{view: Camera}`` and a JSON-able description of the draw.
     """
@@ -192,4 +254,8 @@ def sample_rig_points(points: Points, rng: np.random.Generator, size: int = DEFA
         if all(_well_inside(cams[view], points, view, size) for view in VIEWS):
             break
         frac *= 0.93
+    if any(v in OBLIQUE_VIEWS for v in views):
+        oblique, oblique_info = _oblique_cameras(points, rng, base, focal, size, views)
+        cams.update(oblique)
+        info["views"].update(oblique_info)
     return cams, info

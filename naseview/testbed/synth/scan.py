@@ -414,13 +414,15 @@ def _truth_curves(scan: ScanFace) -> dict[str, np.ndarray]:
 
 def synthesize_scan_case(out_dir: str | os.PathLike[str], scan: ScanFace, seed: int = 0,
                          noise_px: float = 1.5, size: int = DEFAULT_SIZE,
-                         image_noise: float = 2.0) -> Path:
+                         image_noise: float = 2.0, views: tuple[str, ...] = VIEWS) -> Path:
     """Render one case of a scan with its SPEC §7 truth into ``out_dir`` (module doc).
 
     The seed draws the rig, the studio, the head proxy's colours, the click noise and the
     sensor noise (:func:`~naseview.testbed.synth.synthesize.random_streams`); the face is
-    always the scan. ``truth.json`` holds the true landmarks, curves and cameras and
-    ``extra.synth`` (seed, noise, rig, the scan's source and credit).
+    always the scan. ``views``: the four and any obliques, as
+    :func:`~naseview.testbed.synth.synthesize.synthesize_case`. ``truth.json`` holds the
+    true landmarks, curves and cameras and ``extra.synth`` (seed, noise, rig, the scan's
+    source and credit).
 
     Returns:
         path of the written ``case.json`` (written last).
@@ -428,31 +430,32 @@ def synthesize_scan_case(out_dir: str | os.PathLike[str], scan: ScanFace, seed: 
         NaseviewError: ``size``, ``seed`` or a noise out of range
             (:func:`~naseview.testbed.synth.rig.check_synth_arguments`).
     """
-    from naseview.testbed.synth.synthesize import random_streams
+    from naseview.testbed.synth.synthesize import random_streams, views_option
 
     check_synth_arguments(size, seed, noise_px, image_noise)
     out = Path(out_dir)
     rs = random_streams(seed)
-    cams, rig_info = sample_rig_points(scan.landmarks, rs["rig"], size)
+    cams, rig_info = sample_rig_points(scan.landmarks, rs["rig"], size, views)
     sc, look = _scan_scene(scan, rs["appearance"])
     studio = draw_studio(rs["appearance"])
     curves = _truth_curves(scan)
     images: dict[str, np.ndarray] = {}
-    views: dict[str, View] = {}
+    photos: dict[str, View] = {}
     boundaries: dict[str, dict[str, list[list[float]]]] = {}
-    for view in VIEWS:
+    for view in views:
         images[view], depth = _render_scan_photo(sc, cams[view], studio, rs["sensor"],
                                                  image_noise)
         clicks = view_clicks(view, cams[view], depth, scan.landmarks, scan.helpers,
                              rs["clicks"], noise_px)
-        views[view] = View(view, f"{view}.jpg", clicks, size, size, None)
+        photos[view] = View(view, f"{view}.jpg", clicks, size, size, None)
         for name, pts in view_boundaries(curves, view, cams[view], depth).items():
             boundaries.setdefault(name, {})[view] = pts
     al = float(np.linalg.norm(scan.landmarks["al_l"] - scan.landmarks["al_r"]))
-    case = CaseData(root=out, id=f"scan-{anonymous_scan_id(scan)}-{seed}", views=views,
+    case = CaseData(root=out, id=f"scan-{anonymous_scan_id(scan)}-{seed}", views=photos,
                     scale_mm={("al_l", "al_r"): round(al, 4)},
                     notes=f"synthetic case of a face scan: naseview synth --scan --seed "
-                          f"{seed} --noise-px {noise_px:g} --size {size}")
+                          f"{seed} --noise-px {noise_px:g} --size {size}"
+                          + views_option(views))
     rec = Reconstruction(
         landmarks=dict(scan.landmarks), cameras=cams, curves=curves,
         measurements=clinical_measurements(scan.landmarks, curves or None, scan.V, scan.F),

@@ -6,8 +6,9 @@ Every random draw comes from ``seed``, one independent stream per part
 ``case.json``, which comes last: ``truth_face.ply`` (the true face mesh, model vertices
 only, SPEC frame, mm), ``truth_boundaries.json`` and ``truth.json``
 (:class:`~naseview.reconstruction.Reconstruction` schema: true landmarks, curves, the four
-true cameras and the true clinical measurements; ``extra`` keys ``synth`` (seed, model,
-identity coefficients, rig and appearance parameters) and ``nose_vertex_ids``).
+true cameras (and the obliques', when rendered) and the true clinical measurements;
+``extra`` keys ``synth`` (seed, model, identity coefficients, rig and appearance
+parameters) and ``nose_vertex_ids``).
 ``scale_mm`` of the case is the true distance al_l-al_r.
 """
 
@@ -60,29 +61,36 @@ def _check(model: FaceModel, size: int, seed: int, noise_px: float,
 
 def _synth_record(model: FaceModel, seed: int, noise_px: float, image_noise: float,
                   size: int, w: np.ndarray, rig: dict[str, Any],
-                  look: dict[str, Any]) -> dict[str, Any]:
+                  look: dict[str, Any], views: tuple[str, ...]) -> dict[str, Any]:
     """The ``extra.synth`` record of ``truth.json``: how the case was drawn."""
     return {
         "seed": int(seed), "model": model.name, "credit": model.credit,
         "noise_px": float(noise_px), "image_noise": float(image_noise), "size": int(size),
         "identity_coefficients": w.tolist(), "rig": rig, "appearance": look,
-        "view_landmarks": {k: list(v) for k, v in VIEW_LANDMARKS.items()},
+        "view_landmarks": {k: list(VIEW_LANDMARKS[k]) for k in views},
         "truth_curve_views": {k: list(v) for k, v in CURVE_VIEWS.items()},
     }
 
 
+def views_option(views: tuple[str, ...]) -> str:
+    """`` --views a,b,..`` for the notes of a case with obliques; '' for the four views."""
+    return "" if tuple(views) == VIEWS else f" --views {','.join(views)}"
+
+
 def _case(out: Path, model: FaceModel, seed: int, noise_px: float, size: int,
           image_noise: float, views: dict[str, View], al_mm: float) -> Case:
-    """The case a surgeon would bring: four photos' clicks and the calliper distance."""
+    """The case a surgeon would bring: the photos' clicks and the calliper distance."""
     return Case(root=out, id=f"synth-{model.name}-{seed}", views=views,
                 scale_mm={("al_l", "al_r"): round(al_mm, 4)},
                 notes=f"synthetic case: naseview synth --model {model.name} --seed {seed} "
-                      f"--noise-px {noise_px:g} --size {size} --image-noise {image_noise:g}")
+                      f"--noise-px {noise_px:g} --size {size} --image-noise {image_noise:g}"
+                      + views_option(tuple(views)))
 
 
 def synthesize_case(out_dir: str | os.PathLike[str], model: FaceModel, seed: int = 0,
                     noise_px: float = 1.5, size: int = DEFAULT_SIZE,
-                    image_noise: float = 2.0, write_focal: bool = False) -> Path:
+                    image_noise: float = 2.0, write_focal: bool = False,
+                    views: tuple[str, ...] = VIEWS) -> Path:
     """Render one synthetic case with ground truth into ``out_dir`` (module docstring).
 
     Args:
@@ -94,6 +102,10 @@ def synthesize_case(out_dir: str | os.PathLike[str], model: FaceModel, seed: int
         image_noise: sensor noise, standard deviation in grey levels (0 = none).
         write_focal: also give each view's true focal length in ``case.json``
             (``"camera": {"focal_px": f}``, as a phone's EXIF would).
+        views: the photos: the four of :data:`~naseview.landmarks.VIEWS` and any of the
+            obliques (:func:`~naseview.testbed.synth.rig.parse_views`); the obliques are
+            drawn after the four from every stream, so the four photos, their clicks and
+            the truth are those of the four-photo case of the same seed.
     Returns:
         path of the written ``case.json``.
     """
@@ -102,7 +114,7 @@ def synthesize_case(out_dir: str | os.PathLike[str], model: FaceModel, seed: int
     rs = random_streams(seed)
     V, w = sample_identity(model, rs["identity"])
     F = np.asarray(model.faces, dtype=np.int64)
-    cams, rig_info = sample_rig(V, model, rs["rig"], size)
+    cams, rig_info = sample_rig(V, model, rs["rig"], size, views)
     scene, look = build_scene(model, V, rs["appearance"])
     studio = draw_studio(rs["appearance"])
     look.update({"background_bgr": list(studio.background),
@@ -111,24 +123,24 @@ def synthesize_case(out_dir: str | os.PathLike[str], model: FaceModel, seed: int
     curves = truth_curves(model, V)
     helpers = helper_points(model, V)
     images: dict[str, np.ndarray] = {}
-    views: dict[str, View] = {}
+    photos: dict[str, View] = {}
     boundaries: dict[str, dict[str, list[list[float]]]] = {}
-    for view in VIEWS:
+    for view in views:
         cam: Camera = cams[view]
         images[view], depth = render_photo(scene, cam, studio.background, rs["sensor"],
                                            image_noise, studio.light_dirs)
         clicks = view_clicks(view, cam, depth, true_lm, helpers, rs["clicks"], noise_px)
         camera_json = {"focal_px": round(cam.focal_px, 3)} if write_focal else None
-        views[view] = View(view, f"{view}.jpg", clicks, size, size, camera_json)
+        photos[view] = View(view, f"{view}.jpg", clicks, size, size, camera_json)
         for name, pts in view_boundaries(curves, view, cam, depth).items():
             boundaries.setdefault(name, {})[view] = pts
     al = float(np.linalg.norm(true_lm["al_l"] - true_lm["al_r"]))
-    case = _case(out, model, seed, noise_px, size, image_noise, views, al)
+    case = _case(out, model, seed, noise_px, size, image_noise, photos, al)
     rec = Reconstruction(
         landmarks=true_lm, cameras=cams, curves=curves,
         measurements=clinical_measurements(true_lm, curves, V, F),
         extra={"synth": _synth_record(model, seed, noise_px, image_noise, size, w, rig_info,
-                                      look),
+                                      look, views),
                "nose_vertex_ids": np.asarray(model.nose_vertices, dtype=int).tolist()})
     out.mkdir(parents=True, exist_ok=True)
     export_mesh(out / "truth_face.ply", V, F)
