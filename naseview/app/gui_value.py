@@ -20,3 +20,13 @@ T = TypeVar("T")
 def set_value(handle: viser.GuiInputHandle[T] | GuiProgressBarHandle, value: T) -> None:
     """``handle.value = value`` (sent to every browser that shows the input)."""
     handle.value = value  # type: ignore[misc]  # viser 1.1's setter, invisible to mypy
+
+
+def set_options(dropdown: viser.GuiDropdownHandle[str], options: tuple[str, ...]) -> None:
+    """Offer ``options`` in ``dropdown``, keeping its value when still offered (else the
+    first option)."""
+    if tuple(dropdown.options) == options or not options:
+        return
+    keep = str(dropdown.value)
+    dropdown.options = options
+    set_value(dropdown, keep if keep in options else options[0])

@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 import viser
 
+from naseview.app.gui_value import set_options
 from naseview.camera import Camera
 from naseview.texture.composite import blend, composite_photo
 
@@ -164,6 +165,14 @@ class PhotoSimulation:
                                         daemon=True)
         self._thread.start()
         _WORKERS.add(self)
+
+    def set_views(self, views: tuple[str, ...]) -> None:
+        """Offer ``views`` (the open case's photos, obliques included) in every display."""
+        if not views or views == self.views:
+            return
+        self.views = views
+        for d in self.displays:
+            set_options(d.view, views)
 
     def add_display(self, gui: viser.GuiApi, initial: str = "front") -> PhotoDisplay:
         d = PhotoDisplay(gui, self, self.views,

@@ -34,7 +34,7 @@ import viser
 from naseview.app.annotate_page import AnnotatePage
 from naseview.app.colormap import nice_limit, signed_displacement
 from naseview.app.face_look import LookSource, face_look, look_export
-from naseview.app.gui_value import set_value
+from naseview.app.gui_value import set_options, set_value
 from naseview.app.landmark_diagrams import LandmarkDiagrams
 from naseview.app.panels import (
     Panels,
@@ -61,7 +61,7 @@ from naseview.case import Case
 from naseview.editing.baseline import Baseline, Simulation
 from naseview.editing.controller import EditController
 from naseview.errors import NaseviewError
-from naseview.landmarks import VIEWS
+from naseview.landmarks import ALL_VIEWS, VIEWS
 from naseview.measurements import Estimate
 from naseview.stage2_curves import CurveParams
 from naseview.stage3_mesh import RefineParams
@@ -371,9 +371,17 @@ class Screen:
         p.show_error(None)
         self._on_simulation(ctl.simulation)
         self._on_history()
+        self._offer_views()
         self.show_photo(p.photo_view.value)
         credit = self.app.credit or ""
         p.credit.content = f"<small>Face model: {credit}</small>" if credit else ""
+
+    def _offer_views(self) -> None:
+        """The photo dropdowns list the open case's photos (the obliques when it has them)."""
+        case = self.app.case
+        views = tuple(v for v in ALL_VIEWS if case is not None and v in case.views) or VIEWS
+        set_options(self.panels.photo_view, views)
+        self.photo_sim.set_views(views)
 
     # listeners (controller worker thread)
     def _on_simulation(self, sim: Simulation) -> None:
