@@ -25,7 +25,7 @@ from naseview.app.landmark_names import display_name
 from naseview.app.patients_panel import PatientList
 from naseview.intake.click_order import CLICK_ORDER, VIEW_TITLES, definition
 from naseview.intake.session import AnnotationSession, default_case_id
-from naseview.landmarks import VIEWS
+from naseview.landmarks import OBLIQUE_VIEWS
 from naseview.records import PatientRecords
 
 _UNSET = object()
@@ -70,7 +70,8 @@ class AnnotatePanel(AnnotateState):
                 with gui.add_folder(None) as self.f_uploads:
                     for label, view in VIEW_BUTTONS.items():
                         self.uploads[view] = gui.add_upload_button(
-                            f"{label} photo", icon=viser.Icon.UPLOAD,
+                            f"{label} photo" + (" (optional)" if view in OBLIQUE_VIEWS
+                                                else ""), icon=viser.Icon.UPLOAD,
                             mime_type="image/jpeg,image/png",
                             hint=f"{VIEW_TITLES[view]}: JPEG or PNG")
                 self.photo_info = gui.add_markdown("")
@@ -153,10 +154,10 @@ class AnnotatePanel(AnnotateState):
         # keep the upload buttons a moment after the last upload: hiding them while the
         # browser still shows its upload notification leaves that notification spinning
         recent = time.monotonic() - self._last_upload < 2.0
-        full = len(s.photos) < len(VIEWS) or self._intake_open or recent
+        full = bool(s.missing_photos()) or self._intake_open or recent
         for h in (self.case_id, self.other, self.photo_info, self.f_uploads):
             S(h, "visible", full)
-        S(self.change_btn, "visible", len(s.photos) == len(VIEWS))
+        S(self.change_btn, "visible", not s.missing_photos())
         S(self.change_btn, "label", "Done" if self._intake_open
           else "Change photos, id or distances")
         S(self.intake_md, "visible", not full)

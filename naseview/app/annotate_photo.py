@@ -32,7 +32,7 @@ from naseview.app.scope import (
 )
 from naseview.errors import NaseviewError
 from naseview.intake.click_order import CLICK_ORDER
-from naseview.landmarks import VIEWS
+from naseview.landmarks import ALL_VIEWS
 
 
 class PhotoView(AnnotateState):
@@ -41,7 +41,7 @@ class PhotoView(AnnotateState):
     def set_view(self, view: str, fit: bool = False) -> None:
         """Show the photo of ``view`` (worker thread)."""
         s = self._need_session()
-        if view not in VIEWS:
+        if view not in ALL_VIEWS:
             raise NaseviewError(f"unknown view {view!r}")
         changed = view != self.view or self.plane is None
         self.view = view

@@ -18,14 +18,15 @@ from naseview.app.landmark_names import display_name
 from naseview.camera import orbit_camera
 from naseview.facemodel import FaceModel, load_face_model
 from naseview.geometry.closing import cap_holes
-from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
+from naseview.intake.click_order import CLICK_ORDER, PHOTO_ORDER
 from naseview.render import render_mesh
 
 log = logging.getLogger(__name__)
 
 DIAGRAM_DIRECTIONS: dict[str, tuple[float, float, float]] = {
     "front": (0.0, 0.0, 1.0), "left": (1.0, 0.0, 0.12), "right": (-1.0, 0.0, 0.12),
-    "bottom": (0.0, -0.8, 0.6),
+    "bottom": (0.0, -0.8, 0.6), "oblique_left": (0.7, 0.0, 0.7),
+    "oblique_right": (-0.7, 0.0, 0.7),
 }
 """Direction from the nose to the diagram camera per photo (SPEC frame)."""
 
@@ -140,6 +141,6 @@ class LandmarkDiagrams:
 
     def warm(self) -> None:
         """Render every photo direction (call from a background thread)."""
-        for v in VIEW_ORDER:
+        for v in PHOTO_ORDER:
             with self._lock:
                 self._render(v)

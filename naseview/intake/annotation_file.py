@@ -36,9 +36,9 @@ from naseview.case import parse_scale_key
 from naseview.errors import NaseviewError
 from naseview.fileio import one_line, resolve_stored_path, stored_path
 from naseview.imagefile import image_header
-from naseview.intake.click_order import VIEW_ORDER
+from naseview.intake.click_order import PHOTO_ORDER, VIEW_ORDER
 from naseview.intake.photos import MAX_SIDE_PX, PhotoInfo
-from naseview.landmarks import VIEW_LANDMARKS, VIEWS
+from naseview.landmarks import ALL_VIEWS, VIEW_LANDMARKS
 
 ANNOTATION_FORMAT = "naseview.annotation/1"
 ANNOTATION_FILE = "annotation.json"
@@ -50,7 +50,7 @@ MAX_ORIGINAL_SIDE_PX = 100_000
 """Largest original photo side an annotation may record (px)."""
 
 _ID_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]{0,63}")
-_PHOTO_RE = re.compile(r"(front|left|right|bottom)(-[0-9]{1,9})?\.(jpg|png)")
+_PHOTO_RE = re.compile("(" + "|".join(ALL_VIEWS) + r")(-[0-9]{1,9})?\.(jpg|png)")
 _COUNTERS = ("places", "moves", "skips", "undos")
 _HEADER_BYTES = 1 << 18  # enough for the size in the header of the photos the session writes
 
@@ -102,8 +102,8 @@ class AnnotationState:
     revision: int = 0
     photos: dict[str, PhotoInfo] = field(default_factory=dict)
     clicks: dict[str, dict[str, np.ndarray]] = field(
-        default_factory=lambda: {v: {} for v in VIEWS})
-    skipped: dict[str, set[str]] = field(default_factory=lambda: {v: set() for v in VIEWS})
+        default_factory=lambda: {v: {} for v in ALL_VIEWS})
+    skipped: dict[str, set[str]] = field(default_factory=lambda: {v: set() for v in ALL_VIEWS})
     scale_mm: dict[tuple[str, str], float] = field(default_factory=dict)
     notes: str = ""
     active_view: str = VIEW_ORDER[0]
@@ -147,9 +147,9 @@ def _text(path: Path, key: str, value: Any) -> str:
 
 
 def _view(path: Path, key: str, view: Any) -> str:
-    if view not in VIEWS:
+    if view not in ALL_VIEWS:
         raise _err(path, key, f"unknown view {_short(view)}; expected one of "
-                              + ", ".join(VIEW_ORDER))
+                              + ", ".join(PHOTO_ORDER))
     return str(view)
 
 
@@ -218,7 +218,7 @@ def _parse_photos(path: Path, folder: Path, value: Any) -> dict[str, PhotoInfo]:
 
 def _parse_clicks(path: Path, value: Any, photos: dict[str, PhotoInfo]
                   ) -> dict[str, dict[str, np.ndarray]]:
-    clicks: dict[str, dict[str, np.ndarray]] = {v: {} for v in VIEWS}
+    clicks: dict[str, dict[str, np.ndarray]] = {v: {} for v in ALL_VIEWS}
     for v, c in _obj(path, "clicks", value).items():
         key = f"clicks.{v}"
         _view(path, key, v)
@@ -231,7 +231,7 @@ def _parse_clicks(path: Path, value: Any, photos: dict[str, PhotoInfo]
 
 
 def _parse_skipped(path: Path, value: Any) -> dict[str, set[str]]:
-    skipped: dict[str, set[str]] = {v: set() for v in VIEWS}
+    skipped: dict[str, set[str]] = {v: set() for v in ALL_VIEWS}
     for v, ids in _obj(path, "skipped", value).items():
         key = f"skipped.{v}"
         _view(path, key, v)

@@ -38,10 +38,14 @@ Example
 
 from __future__ import annotations
 
-from naseview.landmarks import ALL_IDS, LANDMARKS, VIEW_LANDMARKS, VIEWS
+from naseview.landmarks import ALL_IDS, ALL_VIEWS, LANDMARKS, OBLIQUE_VIEWS, VIEW_LANDMARKS, VIEWS
 
 VIEW_ORDER: tuple[str, ...] = ("front", "bottom", "left", "right")
-"""Guided order of the photos (see the module docstring for why bottom is second)."""
+"""Guided order of the four required photos (see the module docstring for why bottom is
+second)."""
+
+PHOTO_ORDER: tuple[str, ...] = VIEW_ORDER + OBLIQUE_VIEWS
+"""Guided order of every photo: the four, then the optional obliques (issue 24)."""
 
 CLICK_ORDER: dict[str, tuple[str, ...]] = {
     "front": ("g", "n", "k", "r", "prn", "c", "sn",
@@ -53,6 +57,12 @@ CLICK_ORDER: dict[str, tuple[str, ...]] = {
              "alpp_l", "md_l", "alp_l", "ac_l", "al_l", "int_l", "mf_l"),
     "right": ("g", "n", "k", "r", "prn", "c", "sn",
               "alpp_r", "md_r", "alp_r", "ac_r", "al_r", "int_r", "mf_r"),
+    # a 3/4 photo shows the nasal root from the side, which a profile often hides: glabella
+    # and both medial canthi first, then the profile and its own side's ala
+    "oblique_left": ("g", "mf_l", "mf_r", "n", "k", "r", "prn", "c", "sn",
+                     "alpp_l", "md_l", "alp_l", "ac_l", "al_l", "int_l", "md_r"),
+    "oblique_right": ("g", "mf_r", "mf_l", "n", "k", "r", "prn", "c", "sn",
+                      "alpp_r", "md_r", "alp_r", "ac_r", "al_r", "int_r", "md_l"),
 }
 """Per photo, the landmarks of :data:`naseview.landmarks.VIEW_LANDMARKS` in click order
 (module docstring)."""
@@ -61,6 +71,9 @@ VIEW_TITLES: dict[str, str] = {
     "front": "Front photo", "bottom": "Bottom (basal) photo",
     "left": "Left profile (camera on the subject's left)",
     "right": "Right profile (camera on the subject's right)",
+    "oblique_left": "Left oblique (¾, camera about 45° towards the subject's left; optional)",
+    "oblique_right": "Right oblique (¾, camera about 45° towards the subject's right; "
+                     "optional)",
 }
 """Heading of each photo in the page."""
 
@@ -68,8 +81,8 @@ VIEW_TITLES: dict[str, str] = {
 def _check_tables() -> None:
     """Every photo asks for exactly its :data:`VIEW_LANDMARKS`, each once, and every
     landmark and helper is asked for somewhere (raises at import otherwise)."""
-    if set(VIEW_ORDER) != set(VIEWS) or set(CLICK_ORDER) != set(VIEWS):
-        raise AssertionError(f"VIEW_ORDER / CLICK_ORDER must list the views {VIEWS}")
+    if set(VIEW_ORDER) != set(VIEWS) or set(CLICK_ORDER) != set(ALL_VIEWS):
+        raise AssertionError(f"VIEW_ORDER must list {VIEWS}, CLICK_ORDER {ALL_VIEWS}")
     for v, ids in CLICK_ORDER.items():
         if len(set(ids)) != len(ids) or set(ids) != set(VIEW_LANDMARKS[v]):
             raise AssertionError(f"CLICK_ORDER[{v!r}] must order VIEW_LANDMARKS[{v!r}], "

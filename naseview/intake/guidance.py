@@ -31,7 +31,7 @@ from naseview.camera import Camera, intrinsics
 from naseview.case import Case, View
 from naseview.errors import NaseviewError
 from naseview.intake.click_order import CLICK_ORDER
-from naseview.landmarks import LANDMARK_IDS, VIEWS
+from naseview.landmarks import ALL_VIEWS, LANDMARK_IDS
 from naseview.stage1_landmarks import SfmResult, bundle_adjust
 
 log = logging.getLogger(__name__)
@@ -188,7 +188,7 @@ def _place_cameras(res: SfmResult, lm_clicks: Clicks, sizes: dict[str, tuple[int
     the median focal length (relative to the photo size) of the adjusted ones."""
     cams = dict(res.cameras)
     ratios = [c.focal_px / max(c.width, c.height) for c in cams.values()]
-    for v in VIEWS:
+    for v in ALL_VIEWS:
         if v in cams or v not in sizes:
             continue
         w, h = sizes[v]
@@ -261,7 +261,7 @@ def quick_stage1(clicks: Clicks, sizes: dict[str, tuple[int, int]],
     lm_clicks = {v: {i: np.asarray(p, float) for i, p in c.items() if i in LANDMARK_IDS}
                  for v, c in clicks.items() if v in sizes}
     notes = radix_notes(lm_clicks, sizes)
-    views = [v for v in VIEWS if len(lm_clicks.get(v, {})) >= HINT_MIN_CLICKS]
+    views = [v for v in ALL_VIEWS if len(lm_clicks.get(v, {})) >= HINT_MIN_CLICKS]
     if len(views) < 2:
         return Guidance(message=f"Hints start once {HINT_MIN_CLICKS} landmarks are clicked "
                                 "in two photos.", notes=notes)

@@ -65,10 +65,10 @@ from naseview.intake.annotation_file import (
     safe_case_id,
 )
 from naseview.intake.case_writer import write_case_dir
-from naseview.intake.click_order import CLICK_ORDER, VIEW_ORDER
+from naseview.intake.click_order import CLICK_ORDER, PHOTO_ORDER, VIEW_ORDER
 from naseview.intake.guidance import HINT_MIN_CLICKS, Guidance, quick_stage1
 from naseview.intake.photos import PhotoInfo, decode_photo, encode_photo, photo_kind
-from naseview.landmarks import LANDMARK_IDS, VIEW_LANDMARKS, VIEWS
+from naseview.landmarks import ALL_VIEWS, LANDMARK_IDS, VIEW_LANDMARKS, VIEWS
 from naseview.stage1_landmarks.template import TEMPLATE_MM, plausible_distance, typical_distance_mm
 
 log = logging.getLogger(__name__)
@@ -151,8 +151,8 @@ class AnnotationSession:
         self.created, self.updated, self.revision = st.created, st.updated, st.revision
         self.photos: dict[str, PhotoInfo] = dict(st.photos)
         self.clicks: dict[str, dict[str, np.ndarray]] = {
-            v: dict(st.clicks.get(v, {})) for v in VIEWS}
-        self.skipped: dict[str, set[str]] = {v: set(st.skipped.get(v, ())) for v in VIEWS}
+            v: dict(st.clicks.get(v, {})) for v in ALL_VIEWS}
+        self.skipped: dict[str, set[str]] = {v: set(st.skipped.get(v, ())) for v in ALL_VIEWS}
         self.scale_mm: dict[tuple[str, str], float] = dict(st.scale_mm)
         self.notes = st.notes
         self.active_view = st.active_view
@@ -334,15 +334,16 @@ class AnnotationSession:
 
     # clicks
     def _check_view(self, view: str) -> None:
-        if view not in VIEWS:
-            raise NaseviewError(f"unknown view {view!r}; expected one of {', '.join(VIEWS)}")
+        if view not in ALL_VIEWS:
+            raise NaseviewError(f"unknown view {view!r}; expected one of "
+                                f"{', '.join(ALL_VIEWS)}")
 
     def _check_click(self, view: str, landmark: str, xy: ArrayLike) -> np.ndarray:
         self._check_view(view)
         if landmark not in VIEW_LANDMARKS[view]:
             raise NaseviewError(f"landmark {landmark!r} is not marked in the {view} photo; "
                                 f"it is asked for in: " + ", ".join(
-                                    v for v in VIEW_ORDER if landmark in VIEW_LANDMARKS[v]))
+                                    v for v in PHOTO_ORDER if landmark in VIEW_LANDMARKS[v]))
         info = self.photos.get(view)
         if info is None:
             raise NaseviewError(f"no photo for the {view} view yet; upload it first")
@@ -455,7 +456,7 @@ class AnnotationSession:
         active view), else of the following photos in :data:`VIEW_ORDER` that have a
         photo; ``None`` when every uploaded photo is done."""
         start = view or self.active_view
-        order = list(VIEW_ORDER)
+        order = list(PHOTO_ORDER)
         i = order.index(start)
         for v in order[i:] + order[:i]:
             if v not in self.photos:
@@ -468,7 +469,8 @@ class AnnotationSession:
     def progress(self, view: str | None = None) -> tuple[int, int]:
         """(done, asked) where done counts placed and skipped landmarks (one view or all
         four)."""
-        views = [view] if view else list(VIEWS)
+        views = [view] if view else [v for v in ALL_VIEWS
+                                     if v in VIEWS or v in self.photos]
         done = sum(1 for v in views for i in CLICK_ORDER[v] if self.status(v, i) != "todo")
         return done, sum(len(CLICK_ORDER[v]) for v in views)
 
@@ -570,7 +572,7 @@ class AnnotationSession:
                 for (a, b), d in self.scale_mm.items()                    # entry it is about
                 if a in TEMPLATE_MM and b in TEMPLATE_MM and not plausible_distance(a, b, d)]
         out += self._too_few_clicks()
-        if not self.missing_photos() and not any("g" in self.clicks[v] for v in VIEWS):
+        if not self.missing_photos() and not any("g" in self.clicks[v] for v in ALL_VIEWS):
             out.append("click glabella g (the origin of the 3D frame) in the front photo "
                        "and in a profile photo")
         out += self._unclicked_scale_ends()
@@ -591,7 +593,7 @@ class AnnotationSession:
         """Photos with fewer than :data:`HINT_MIN_CLICKS` landmark clicks (stage 1 needs
         them)."""
         out = []
-        for v in VIEW_ORDER:
+        for v in PHOTO_ORDER:
             if v not in self.photos:
                 continue
             n = sum(1 for i in self.clicks[v] if i in LANDMARK_IDS)
@@ -603,7 +605,7 @@ class AnnotationSession:
     def _unclicked_scale_ends(self) -> list[str]:
         """Calliper distances one of whose landmarks is clicked in no photo."""
         return [f"the distance {a}-{b} needs {i} clicked" for (a, b) in self.scale_mm
-                for i in (a, b) if not any(i in self.clicks[v] for v in VIEWS)]
+                for i in (a, b) if not any(i in self.clicks[v] for v in ALL_VIEWS)]
 
     def to_case(self) -> Case:
         """The case (SPEC §3) as it stands; photos are read from :attr:`folder`.
@@ -618,7 +620,7 @@ class AnnotationSession:
             views = {v: View(v, self.photos[v].file, {i: xy.copy() for i, xy in
                                                       self.clicks[v].items()},
                              self.photos[v].width, self.photos[v].height)
-                     for v in VIEWS}
+                     for v in ALL_VIEWS if v in self.photos}
             extra = {"annotation": {"tool": "naseview annotate", "session": self.uid,
                                     "skipped": {v: sorted(s) for v, s in
                                                 self.skipped.items() if s}}}
