@@ -125,8 +125,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--model", default=None, help="base face model for reconstruction")
     s.add_argument("--new", action="store_true",
                    help="start with the new-patient page (the demo case is not opened): "
-                        "upload four photos and click the landmarks (kept in "
-                        "$NASEVIEW_WORK_DIR or ~/naseview-patients)")
+                        "upload four photos (two obliques optional) and click the "
+                        "landmarks (kept in $NASEVIEW_WORK_DIR or ~/naseview-patients)")
     s.add_argument("--no-browser", action="store_true",
                    help="do not open the page in the browser (just print its address)")
     s.set_defaults(func=serve_command)

@@ -31,6 +31,13 @@ from naseview.records import PatientRecords
 _UNSET = object()
 
 
+def upload_label(name: str, view: str, loaded: bool) -> str:
+    """Text of a photo's upload button: the obliques say they are optional."""
+    if loaded:
+        return f"{name} photo ✓"
+    return f"{name} photo (optional)" if view in OBLIQUE_VIEWS else f"{name} photo"
+
+
 class AnnotatePanel(AnnotateState):
     """The panel part of :class:`~naseview.app.annotate_page.AnnotatePage`."""
 
@@ -70,8 +77,7 @@ class AnnotatePanel(AnnotateState):
                 with gui.add_folder(None) as self.f_uploads:
                     for label, view in VIEW_BUTTONS.items():
                         self.uploads[view] = gui.add_upload_button(
-                            f"{label} photo" + (" (optional)" if view in OBLIQUE_VIEWS
-                                                else ""), icon=viser.Icon.UPLOAD,
+                            upload_label(label, view, False), icon=viser.Icon.UPLOAD,
                             mime_type="image/jpeg,image/png",
                             hint=f"{VIEW_TITLES[view]}: JPEG or PNG")
                 self.photo_info = gui.add_markdown("")
@@ -141,7 +147,8 @@ class AnnotatePanel(AnnotateState):
         view_done, view_total = s.progress(self.view)
         if not s.photos:
             self._set(self.status, "content", "**New patient** — upload the four photos "
-                      "(front, bottom, left and right profile), then mark the landmarks.")
+                      "(front, bottom, left and right profile) and, if you have them, the "
+                      "two ¾ obliques (optional), then mark the landmarks.")
         else:
             self._set(self.status, "content", f"**{s.case_id}** · {VIEW_TITLES[self.view]} · "
                       f"{view_done}/{view_total} here, {done}/{total} overall")
@@ -162,8 +169,7 @@ class AnnotatePanel(AnnotateState):
           else "Change photos, id or distances")
         S(self.intake_md, "visible", not full)
         for view, btn in self.uploads.items():
-            S(btn, "label", f"{names[view]} photo ✓" if view in s.photos
-              else f"{names[view]} photo")
+            S(btn, "label", upload_label(names[view], view, view in s.photos))
             S(btn, "color", "green" if view in s.photos else None)
         S(self.photo_info, "content", "  \n".join(
             [f"⚠ {w}" for v, w in self._photo_warnings.items() if v in s.photos]

@@ -64,8 +64,8 @@ def start_app(path: Path | None, host: str = "127.0.0.1", port: int = 8080,
         if path is not None or not new_patient:
             app.open(path)
         else:
-            app.set_status("**New patient**: upload the four photos, then mark the "
-                           "landmarks.")
+            app.set_status("**New patient**: upload the four photos (the two "
+                           "obliques optional), then mark the landmarks.")
     except BaseException:
         server.stop()
         raise
