@@ -36,7 +36,7 @@ HINT_RGB = (255, 40, 200)
 OTHER_HINT_RGB = (40, 200, 255)
 """Colour of the dots where the other landmarks of the photo probably are."""
 VIEW_BUTTONS = {"Front": "front", "Bottom": "bottom", "Left": "left", "Right": "right",
-                "Oblique-left": "oblique_left", "Oblique-right": "oblique_right"}
+                "Left-oblique": "oblique_left", "Right-oblique": "oblique_right"}
 """Photo button label -> view."""
 PICK_NONE = "— choose a landmark —"
 """The landmark drop-down's entry while the landmark being clicked is in another photo."""
