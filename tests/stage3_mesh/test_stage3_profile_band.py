@@ -22,7 +22,7 @@ from naseview.meshio import read_mesh
 from naseview.pipeline import PipelineResult, photo_silhouettes, reconstruct, run_stage3
 from naseview.stage3_mesh import RefineParams
 from naseview.stage3_mesh.profile_band import profile_band, profile_box
-from naseview.stage3_mesh.silhouette import contour_targets, edge_faces, nose_box
+from naseview.stage3_mesh.silhouette import Silhouette, contour_targets, edge_faces, nose_box
 from naseview.stage3_mesh.solve import surface_distances
 
 LPS_A = Path(__file__).resolve().parents[3] / "shared" / "data" / "scan-cases" / "lps-a"
@@ -41,6 +41,31 @@ def _lip_ids(V: np.ndarray, lm: dict[str, np.ndarray]) -> np.ndarray:
                           & (V[:, 1] > sn[1] - 12))
 
 
+def _true_nasolabial() -> float:
+    """The nasolabial angle of lps-a's true face (deg), by naseview's own measurement."""
+    truth = json.loads((LPS_A / "truth.json").read_text())
+    tl = {k: np.asarray(v, float) for k, v in truth["landmarks"].items()}
+    TV, TF = read_mesh(LPS_A / "truth_face.ply")
+    return float(clinical_measurements(tl, None, TV, TF)["nasolabial_angle"])
+
+
+def _lip_figures(res: PipelineResult, sils: list[Silhouette], true_angle: float, detrend: bool
+                 ) -> tuple[float, float]:
+    """(median distance (mm) of the lip's outline from the photos' silhouettes, absolute
+    nasolabial angle error (deg)) of a stage-3 result."""
+    assert res.refined is not None
+    V, F = res.refined.V, res.refined.F
+    lm = res.reconstruction.landmarks
+    lip = np.zeros(len(V), bool)
+    lip[_lip_ids(V, lm)] = True
+    ids, tg, _ = contour_targets(V, F, sils, lip, np.zeros((0, 3)), 1.0, 10.0,
+                                 edge_faces(F), detrend)
+    assert len(ids) >= 3, "the lip's outline is not seen in the profile photos"
+    m = clinical_measurements(lm, res.reconstruction.curves, V, F)
+    return (float(np.median(np.linalg.norm(tg - V[ids], axis=1))),
+            abs(m["nasolabial_angle"] - true_angle))
+
+
 def test_the_upper_lip_follows_the_profile_photos(lps_stages12: PipelineResult) -> None:
     """ICT base on lps-a: with the band (matched in the fit and the silhouette rounds, and
     bent onto the photos before ARAP), the upper lip's outline lies on the profile
@@ -49,28 +74,18 @@ def test_the_upper_lip_follows_the_profile_photos(lps_stages12: PipelineResult) 
     through the landmarks."""
     case = read_case(LPS_A)
     model = load_face_model("ict")
-    truth = json.loads((LPS_A / "truth.json").read_text())
-    tl = {k: np.asarray(v, float) for k, v in truth["landmarks"].items()}
-    TV, TF = read_mesh(LPS_A / "truth_face.ply")
-    true_angle = clinical_measurements(tl, None, TV, TF)["nasolabial_angle"]
+    true_angle = _true_nasolabial()
     sils = photo_silhouettes(case, lps_stages12.reconstruction)
     lip_residual, angle_error = {}, {}
     for used in (False, True):
         res = copy.deepcopy(lps_stages12)
         run_stage3(res, case, model, RefineParams() if used else dataclasses.replace(
             RefineParams(), profile_band_used=False, band_warp_rounds=0))
+        lip_residual[used], angle_error[used] = _lip_figures(res, sils, true_angle, True)
         assert res.refined is not None
-        V, F = res.refined.V, res.refined.F
         lm = res.reconstruction.landmarks
-        lip = np.zeros(len(V), bool)
-        lip[_lip_ids(V, lm)] = True
-        ids, tg, _ = contour_targets(V, F, sils, lip, np.zeros((0, 3)), 1.0, 10.0,
-                                     edge_faces(F), True)
-        assert len(ids) >= 3, "the lip's outline is not seen in the profile photos"
-        lip_residual[used] = float(np.median(np.linalg.norm(tg - V[ids], axis=1)))
-        m = clinical_measurements(lm, res.reconstruction.curves, V, F)
-        angle_error[used] = abs(m["nasolabial_angle"] - true_angle)
-        d = surface_distances(V, F, np.array([lm[k] for k in ("n", "prn", "sn")]))
+        d = surface_distances(res.refined.V, res.refined.F,
+                              np.array([lm[k] for k in ("n", "prn", "sn")]))
         assert d.max() < 0.25
     assert lip_residual[True] < 0.5, lip_residual
     assert lip_residual[True] < 0.3 * lip_residual[False], lip_residual
@@ -84,27 +99,16 @@ def test_the_generic_lip_is_bent_onto_the_profile_photos(lps_stages12: PipelineR
     face's, and the nose itself is not moved by it."""
     case = read_case(LPS_A)
     model = load_face_model("generic")
-    truth = json.loads((LPS_A / "truth.json").read_text())
-    tl = {k: np.asarray(v, float) for k, v in truth["landmarks"].items()}
-    TV, TF = read_mesh(LPS_A / "truth_face.ply")
-    true_angle = clinical_measurements(tl, None, TV, TF)["nasolabial_angle"]
+    true_angle = _true_nasolabial()
     sils = photo_silhouettes(case, lps_stages12.reconstruction)
     lip_residual, angle_error, base = {}, {}, {}
     for rounds in (0, RefineParams().band_warp_rounds):
         res = copy.deepcopy(lps_stages12)
         run_stage3(res, case, model, dataclasses.replace(RefineParams(),
                                                          band_warp_rounds=rounds))
+        lip_residual[rounds], angle_error[rounds] = _lip_figures(res, sils, true_angle,
+                                                                 False)
         assert res.refined is not None
-        V, F = res.refined.V, res.refined.F
-        lm = res.reconstruction.landmarks
-        lip = np.zeros(len(V), bool)
-        lip[_lip_ids(V, lm)] = True
-        ids, tg, _ = contour_targets(V, F, sils, lip, np.zeros((0, 3)), 1.0, 10.0,
-                                     edge_faces(F), False)
-        assert len(ids) >= 3, "the lip's outline is not seen in the profile photos"
-        lip_residual[rounds] = float(np.median(np.linalg.norm(tg - V[ids], axis=1)))
-        m = clinical_measurements(lm, res.reconstruction.curves, V, F)
-        angle_error[rounds] = abs(m["nasolabial_angle"] - true_angle)
         base[rounds] = res.refined.base_V
     on = RefineParams().band_warp_rounds
     assert on > 0
