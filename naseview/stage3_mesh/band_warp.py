@@ -69,7 +69,7 @@ def band_warp(model: FaceModel, base: np.ndarray, landmarks: Mapping[str, np.nda
         return base
     region = np.flatnonzero(band)
     ed = edge_faces(F)
-    start, out = base, base
+    out = base
     held: dict[int, np.ndarray] = {}
     last: tuple[np.ndarray, np.ndarray] | None = None
     for _ in range(params.band_warp_rounds):
@@ -84,7 +84,7 @@ def band_warp(model: FaceModel, base: np.ndarray, landmarks: Mapping[str, np.nda
         held.update({int(i): t for i, t in zip(ids, tg, strict=True)})
         hv = np.fromiter(held, np.int64, len(held))
         ht = np.array([held[int(i)] for i in hv]).reshape(-1, 3)
-        out = smooth_warp(start, F, hv, ht,
+        out = smooth_warp(base, F, hv, ht,
                           np.full(len(hv), 1.0 / params.fit_silhouette_sigma_mm ** 2),
                           params.warp_bending_mm2, region)
     return out
